@@ -1,0 +1,54 @@
+"""Fetch manipulation tasks of the paper as gymnasium envs, registered under the `lerobot_ivmc/` namespace."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+
+from lerobot_ivmc.envs.fetch_env import IvmcFetchEnv
+from lerobot_ivmc.envs.tasks.pick_place import PickPlaceEnv
+from lerobot_ivmc.envs.tasks.pick_reach import PickReachEnv
+from lerobot_ivmc.envs.tasks.push import PushEnv
+
+TASK_ENVS: dict[str, type[IvmcFetchEnv]] = {env.task: env for env in (PushEnv, PickPlaceEnv, PickReachEnv)}
+TASKS = tuple(TASK_ENVS)
+# The paper: "An episode terminates after the task is completed or after the maximum episode limit of 200".
+MAX_EPISODE_STEPS = 200
+# Expert demonstrations last 4 s at 25 Hz.
+DEMO_EPISODE_STEPS = 100
+
+
+def check_task(task: str) -> str:
+    """Return `task` if it names one of the tasks, else raise a ValueError that lists them."""
+    if task not in TASK_ENVS:
+        raise ValueError(f"Unknown task {task!r}; choose one of {TASKS}.")
+    return task
+
+
+def gym_id(task: str) -> str:
+    """The gymnasium id of a task, e.g. ``lerobot_ivmc/PickPlace-v0``."""
+    return f"lerobot_ivmc/{TASK_ENVS[check_task(task)].__name__.removesuffix('Env')}-v0"
+
+
+def make_task_env(task: str, **kwargs) -> IvmcFetchEnv:
+    """Build the bare (unwrapped) env of a task."""
+    return TASK_ENVS[check_task(task)](**kwargs)
+
+
+for _task, _env in TASK_ENVS.items():
+    if gym_id(_task) not in gym.registry:
+        gym.register(
+            id=gym_id(_task),
+            entry_point=f"{_env.__module__}:{_env.__name__}",
+            max_episode_steps=MAX_EPISODE_STEPS,
+        )
+
+__all__ = [
+    "DEMO_EPISODE_STEPS",
+    "MAX_EPISODE_STEPS",
+    "TASKS",
+    "TASK_ENVS",
+    "IvmcFetchEnv",
+    "check_task",
+    "gym_id",
+    "make_task_env",
+]

@@ -1,0 +1,121 @@
+"""A scripted expert that follows waypoints of the grip point with a proportional controller.
+
+The paper generates expert trajectories "by placing pre-defined waypoints and solving the inverse
+kinematics"; here the mocap weld solves the inverse kinematics, so the expert only emits end-effector
+deltas toward the active waypoint plus the discrete gripper command.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from lerobot_ivmc.envs import DEMO_EPISODE_STEPS
+from lerobot_ivmc.envs.fetch_env import GRIPPER_NOOP, POSITION_SCALE, IvmcFetchEnv
+
+PositionFn = Callable[[IvmcFetchEnv], np.ndarray]
+
+
+@dataclass(frozen=True)
+class Waypoint:
+    """A grip-point goal, computed from the env state when the waypoint becomes active.
+
+    Args:
+        position: env -> (3,) world position the grip point should reach.
+        gripper: command sent while this waypoint is active (-1 close, 0 no-op, +1 open).
+        tolerance: distance in metres at which the waypoint counts as reached.
+        hold_steps: steps to stay after reaching it (e.g. while the fingers close).
+        speed: largest grip-point displacement per step, in metres.
+    """
+
+    position: PositionFn
+    gripper: int
+    tolerance: float = 0.01
+    hold_steps: int = 0
+    speed: float = 0.03
+
+
+class WaypointExpert:
+    """Drives an env through a task-specific list of waypoints; subclasses implement `plan`."""
+
+    # Proportional gain on the position error; below 1 to avoid overshooting through the mocap weld.
+    gain = 0.9
+    # Steps allowed per waypoint before moving on anyway, so a blocked motion cannot stall the demo.
+    max_steps_per_waypoint = 40
+
+    def __init__(self, env: IvmcFetchEnv):
+        self.env = env
+        self._waypoints: list[Waypoint] = []
+        self._goal: np.ndarray | None = None
+
+    def plan(self) -> list[Waypoint]:
+        raise NotImplementedError
+
+    def reset(self) -> None:
+        """Plan for the env's current scene; call after `env.reset()`."""
+        self._waypoints = self.plan()
+        self._index = 0
+        self._goal = None
+        self._steps_on_waypoint = 0
+        self._held = 0
+
+    @property
+    def done(self) -> bool:
+        """All waypoints have been reached (the expert then holds still)."""
+        return self._index >= len(self._waypoints)
+
+    def act(self) -> np.ndarray:
+        """The next action [dx, dy, dz, gripper] (float32, dx..dz in action units of 5 cm)."""
+        if self.done:
+            return np.array([0.0, 0.0, 0.0, GRIPPER_NOOP], dtype=np.float32)
+        waypoint = self._waypoints[self._index]
+        if self._goal is None:
+            low, high = self.env.grip_workspace
+            self._goal = np.clip(waypoint.position(self.env), low, high)
+        error = self._goal - self.env.grip_position
+        reached = np.linalg.norm(error) < waypoint.tolerance
+        if reached:
+            self._held += 1
+        self._steps_on_waypoint += 1
+        if (reached and self._held > waypoint.hold_steps) or (
+            self._steps_on_waypoint >= self.max_steps_per_waypoint
+        ):
+            self._advance()
+        step = self.gain * error
+        norm = np.linalg.norm(step)
+        if norm > waypoint.speed:
+            step *= waypoint.speed / norm
+        return np.array([*(step / POSITION_SCALE), waypoint.gripper], dtype=np.float32)
+
+    def _advance(self) -> None:
+        self._index += 1
+        self._goal = None
+        self._steps_on_waypoint = 0
+        self._held = 0
+
+
+def run_expert_episode(
+    env: IvmcFetchEnv,
+    expert: WaypointExpert,
+    seed: int | None = None,
+    max_steps: int = DEMO_EPISODE_STEPS,
+    options: dict | None = None,
+    on_step: Callable[[dict, np.ndarray, dict], None] | None = None,
+) -> dict:
+    """Roll the expert out for `max_steps` steps (or until the env terminates); return the final info.
+
+    `on_step(observation, action, info)` is called with the observation the action was chosen from.
+    """
+    observation, info = env.reset(seed=seed, options=options)
+    expert.reset()
+    for _ in range(max_steps):
+        action = expert.act()
+        next_observation, _, terminated, truncated, info = env.step(action)
+        if on_step is not None:
+            on_step(observation, action, info)
+        observation = next_observation
+        if terminated or truncated:
+            break
+    return info
