@@ -1,0 +1,150 @@
+"""Configuration of VMC, the deterministic visuomotor controller (James et al. 2017, as in the paper)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from lerobot.configs.policies import PreTrainedConfig
+from lerobot.configs.types import FeatureType, NormalizationMode
+from lerobot.optim.optimizers import AdamConfig
+from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
+
+# Layout of the action: delta end-effector command (3) followed by the gripper command in {-1, 0, +1}.
+DELTA_EE_DIM = 3
+ACTION_DIM = DELTA_EE_DIM + 1
+# Layout of `observation.environment_state`, the auxiliary targets: end-effector (3) then object (3) position.
+AUX_DIM = 6
+# Gripper commands close / no-op / open; class index = command + 1.
+GRIPPER_COMMANDS = (-1.0, 0.0, 1.0)
+
+
+@PreTrainedConfig.register_subclass("vmc")
+@dataclass
+class VMCConfig(PreTrainedConfig):
+    """VMC: CNN over the RGB frame, tiled proprioception, LSTM, fully connected layers, four heads.
+
+    Args:
+        n_obs_steps: K, the frames of history fed at training time (the paper: K = 4). Windows that reach
+            before an episode's start are padded by LeRobot; padded steps leave the LSTM state untouched.
+        normalization_mapping: normalisation per feature type. ACTION must stay IDENTITY: its last
+            dimension is a class label (gripper close / no-op / open), which mean/std would mangle.
+        image_key: the camera to use; None picks the only VISUAL input feature.
+        conv_channels: filters of the 3x3 stride-2 conv layers (each halves the image side).
+        lstm_dim: LSTM width, also the size of the embedding e_t.
+        fc_dim: width of the fully connected layers after the LSTM.
+        num_fc_layers: #fc, fully connected layers after the LSTM (the paper: 1 or 2).
+        num_samples: S, Monte Carlo samples per step for `sample()` (the paper: 50, where sampling converges).
+        uncertainty_lambda: lambda of Eq. (weighted-concat), the weight of the command's norm against its
+            direction. The paper treats it as a hyper-parameter without giving its value; 0.5 weighs both equally.
+        optimizer_lr: Adam learning rate.
+        optimizer_weight_decay: Adam weight decay.
+        optimizer_grad_clip_norm: gradient clipping norm applied by lerobot-train.
+    """
+
+    # Input / output structure.
+    n_obs_steps: int = 4
+    normalization_mapping: dict[str, NormalizationMode] = field(
+        default_factory=lambda: {
+            "VISUAL": NormalizationMode.IDENTITY,  # images arrive in [0, 1]
+            "STATE": NormalizationMode.MEAN_STD,
+            "ENV": NormalizationMode.MEAN_STD,  # the auxiliary targets
+            "ACTION": NormalizationMode.IDENTITY,  # delta EE already in [-1, 1]; gripper is a label
+        }
+    )
+    image_key: str | None = None
+
+    # Architecture. Smaller than GEECO's 8-layer CNN at 256x256 so that 64x64 frames train on 2 CPU cores:
+    # 64 -> 32 -> 16 -> 8 -> 4, a 4x4x64 map, concatenated with the tiled state.
+    conv_channels: tuple[int, ...] = (32, 32, 64, 64)
+    lstm_dim: int = 128
+    fc_dim: int = 128
+    num_fc_layers: int = 1
+
+    # Inference. VMC has no stochastic layer: its S samples coincide and its uncertainty is 0.
+    num_samples: int = 50
+    uncertainty_lambda: float = 0.5
+
+    # Training presets (GEECO: Adam, lr 1e-4, batch 32; a larger lr converges faster on short CPU runs).
+    optimizer_lr: float = 3e-4
+    optimizer_weight_decay: float = 0.0
+    optimizer_grad_clip_norm: float = 10.0
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.n_obs_steps < 1:
+            raise ValueError(f"n_obs_steps must be >= 1, got {self.n_obs_steps}.")
+        if self.num_fc_layers not in (1, 2):
+            raise ValueError(f"num_fc_layers (#fc) must be 1 or 2 as in the paper, got {self.num_fc_layers}.")
+        if not self.conv_channels or any(c <= 0 for c in self.conv_channels):
+            raise ValueError(f"conv_channels must be non-empty and positive, got {self.conv_channels}.")
+        for name in ("lstm_dim", "fc_dim"):
+            if getattr(self, name) <= 0:
+                raise ValueError(f"{name} must be positive, got {getattr(self, name)}.")
+        if self.num_samples < 2:
+            raise ValueError(f"num_samples (S) must be >= 2 to estimate a covariance, got {self.num_samples}.")
+        if not 0.0 <= self.uncertainty_lambda <= 1.0:
+            raise ValueError(f"uncertainty_lambda must lie in [0, 1], got {self.uncertainty_lambda}.")
+        action_mode = self.normalization_mapping.get(FeatureType.ACTION.value, NormalizationMode.IDENTITY)
+        if NormalizationMode(action_mode) is not NormalizationMode.IDENTITY:
+            raise ValueError(
+                f"ACTION normalisation must be IDENTITY (the gripper dimension is a class label), got {action_mode}."
+            )
+
+    def get_optimizer_preset(self) -> AdamConfig:
+        return AdamConfig(
+            lr=self.optimizer_lr,
+            weight_decay=self.optimizer_weight_decay,
+            grad_clip_norm=self.optimizer_grad_clip_norm,
+        )
+
+    def get_scheduler_preset(self) -> None:
+        return None
+
+    @property
+    def image_feature_key(self) -> str:
+        """The camera key the policy reads."""
+        if self.image_key is not None:
+            return self.image_key
+        keys = list(self.image_features)
+        if len(keys) != 1:
+            raise ValueError(f"Set `image_key`: expected exactly one image feature, found {keys}.")
+        return keys[0]
+
+    def validate_features(self) -> None:
+        """Raise a ValueError naming whatever the dataset lacks: image, state, auxiliary targets, action."""
+        inputs = self.input_features or {}
+        outputs = self.output_features or {}
+        if not self.image_features:
+            raise ValueError(
+                f"VMC needs an RGB camera ('observation.images.<name>'); input features are {list(inputs)}."
+            )
+        if self.image_key is not None and self.image_key not in self.image_features:
+            raise ValueError(f"image_key {self.image_key!r} is not among {list(self.image_features)}.")
+        shape = self.image_features[self.image_feature_key].shape
+        if len(shape) != 3 or shape[0] != 3:
+            raise ValueError(f"Expected an RGB image of shape (3, H, W), got {shape}.")
+        required = {OBS_STATE: None, OBS_ENV_STATE: (AUX_DIM,)}
+        for key, want in required.items():
+            if key not in inputs:
+                raise ValueError(
+                    f"VMC needs the feature {key!r} (state input, or the auxiliary EE and object positions "
+                    f"for {OBS_ENV_STATE!r}); the dataset provides {list(inputs)}."
+                )
+            if want is not None and tuple(inputs[key].shape) != want:
+                raise ValueError(f"{key!r} must have shape {want}, got {tuple(inputs[key].shape)}.")
+        if ACTION not in outputs or tuple(outputs[ACTION].shape) != (ACTION_DIM,):
+            got = tuple(outputs[ACTION].shape) if ACTION in outputs else None
+            raise ValueError(f"VMC needs an {ACTION!r} of shape ({ACTION_DIM},) [dx, dy, dz, gripper]; got {got}.")
+
+    @property
+    def observation_delta_indices(self) -> list[int]:
+        return list(range(1 - self.n_obs_steps, 1))
+
+    @property
+    def action_delta_indices(self) -> None:
+        # The action of the window's last frame is the target.
+        return None
+
+    @property
+    def reward_delta_indices(self) -> None:
+        return None
