@@ -106,7 +106,7 @@ class ConcreteDropoutHead(nn.Module):
         return [(*leading, d.in_features) for d in self.dropouts]
 
     def forward(self, x: Tensor, stochastic: bool, noise: list[Tensor] | None = None) -> Tensor:
-        """(..., in_dim) -> (..., hidden_dim); masks drawn iff `stochastic` (optionally from given `noise`)."""
+        """(..., in_dim) -> (..., hidden_dim); masks drawn iff `stochastic` (from `noise` if given)."""
         for i, (dropout, linear) in enumerate(zip(self.dropouts, self.linears, strict=True)):
             x = torch.relu(linear(dropout(x, stochastic, None if noise is None else noise[i])))
         return x
@@ -121,4 +121,4 @@ class ConcreteDropoutHead(nn.Module):
 
     def dropout_probabilities(self) -> list[float]:
         """Current dropout probability of each layer."""
-        return [float(d.p) for d in self.dropouts]
+        return [d.p.item() for d in self.dropouts]

@@ -33,9 +33,6 @@ class VMCConfig(PreTrainedConfig):
         lstm_dim: LSTM width, also the size of the embedding e_t.
         fc_dim: width of the fully connected layers after the LSTM.
         num_fc_layers: #fc, fully connected layers after the LSTM (the paper: 1 or 2).
-        num_samples: S, Monte Carlo samples per step for `sample()` (the paper: 50, where sampling converges).
-        uncertainty_lambda: lambda of Eq. (weighted-concat), the weight of the command's norm against its
-            direction. The paper treats it as a hyper-parameter without giving its value; 0.5 weighs both equally.
         optimizer_lr: Adam learning rate.
         optimizer_weight_decay: Adam weight decay.
         optimizer_grad_clip_norm: gradient clipping norm applied by lerobot-train.
@@ -60,10 +57,6 @@ class VMCConfig(PreTrainedConfig):
     fc_dim: int = 128
     num_fc_layers: int = 1
 
-    # Inference. VMC has no stochastic layer: its S samples coincide and its uncertainty is 0.
-    num_samples: int = 50
-    uncertainty_lambda: float = 0.5
-
     # Training presets (GEECO: Adam, lr 1e-4, batch 32; a larger lr converges faster on short CPU runs).
     optimizer_lr: float = 3e-4
     optimizer_weight_decay: float = 0.0
@@ -80,14 +73,10 @@ class VMCConfig(PreTrainedConfig):
         for name in ("lstm_dim", "fc_dim"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)}.")
-        if self.num_samples < 2:
-            raise ValueError(f"num_samples (S) must be >= 2 to estimate a covariance, got {self.num_samples}.")
-        if not 0.0 <= self.uncertainty_lambda <= 1.0:
-            raise ValueError(f"uncertainty_lambda must lie in [0, 1], got {self.uncertainty_lambda}.")
         action_mode = self.normalization_mapping.get(FeatureType.ACTION.value, NormalizationMode.IDENTITY)
         if NormalizationMode(action_mode) is not NormalizationMode.IDENTITY:
             raise ValueError(
-                f"ACTION normalisation must be IDENTITY (the gripper dimension is a class label), got {action_mode}."
+                f"ACTION normalisation must be IDENTITY (the gripper is a class label), got {action_mode}."
             )
 
     def get_optimizer_preset(self) -> AdamConfig:
@@ -134,7 +123,9 @@ class VMCConfig(PreTrainedConfig):
                 raise ValueError(f"{key!r} must have shape {want}, got {tuple(inputs[key].shape)}.")
         if ACTION not in outputs or tuple(outputs[ACTION].shape) != (ACTION_DIM,):
             got = tuple(outputs[ACTION].shape) if ACTION in outputs else None
-            raise ValueError(f"VMC needs an {ACTION!r} of shape ({ACTION_DIM},) [dx, dy, dz, gripper]; got {got}.")
+            raise ValueError(
+                f"VMC needs an {ACTION!r} of shape ({ACTION_DIM},) [dx, dy, dz, gripper]; got {got}."
+            )
 
     @property
     def observation_delta_indices(self) -> list[int]:

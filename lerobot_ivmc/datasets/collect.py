@@ -1,0 +1,420 @@
+"""`lerobot-ivmc-collect`: record N successful expert demonstrations of a task as a LeRobotDataset.
+
+Example::
+
+    lerobot-ivmc-collect --task pick_place --num-episodes 1000 --root data/ivmc_pick_place \\
+        --repo-id local/ivmc_pick_place --num-workers 2 --seed 0 [--push-to-hub]
+
+Attempt k replays the scene drawn by seed `attempt_seed(seed, k)` from the `--split` scenes; the dataset
+keeps the successful attempts in attempt order, so the same arguments always give the same episodes.
+Workers record attempts in parallel and stage each one durably; this process assembles the staged episodes
+in order into a LeRobotDataset with LeRobot's own writer. Killed at any moment and rerun with the same
+arguments, it continues from what was staged (see `lerobot_ivmc.datasets.staging`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import logging
+import multiprocessing
+import multiprocessing.pool
+import sys
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import datasets
+import numpy as np
+from lerobot.datasets.lerobot_dataset import LeRobotDataset
+from tqdm import tqdm
+
+from lerobot_ivmc.datasets import rollout, staging
+from lerobot_ivmc.datasets.features import (
+    ACTION_KEY,
+    DEMO_FPS,
+    ENV_STATE_KEY,
+    IMAGE_KEY,
+    SCENE_OBJECT_CELL_KEY,
+    SCENE_SEED_KEY,
+    SCENE_TARGET_CELL_KEY,
+    STATE_KEY,
+    demo_features,
+)
+from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, TASK_ENVS, TASKS, check_task, gym_id
+from lerobot_ivmc.envs.scenes import SPLITS
+
+logger = logging.getLogger(__name__)
+
+ROBOT_TYPE = "fetch"
+# Give up (keeping what is staged) if the expert fails this often: something is broken, not unlucky.
+_MAX_ATTEMPTS_PER_EPISODE = 4
+_MIN_ATTEMPT_BUDGET = 20
+
+
+@dataclass
+class CollectConfig:
+    """What to collect and where.
+
+    Args:
+        task: task name, one of `lerobot_ivmc.envs.TASKS`.
+        num_episodes: number of successful demonstrations the dataset must hold.
+        root: local dataset folder; default ``data/ivmc_<task>`` under the working directory.
+        repo_id: dataset id (``<hub user>/<name>`` to push); default ``local/ivmc_<task>``.
+        split: scene split the demonstrations come from: "train" (policy training), "val" or "test".
+        image_size: camera image height and width, in pixels.
+        video: store the camera as mp4 video instead of PNG frames (slower to decode when training).
+        num_workers: parallel recording processes; 0 records in this process.
+        seed: base seed from which every attempt's scene seed is derived.
+        push_to_hub: publish the finished dataset with `LeRobotDataset.push_to_hub`.
+        private: make the hub repository private.
+        progress: show a progress bar.
+    """
+
+    task: str
+    num_episodes: int
+    root: Path | None = None
+    repo_id: str | None = None
+    split: str = "train"
+    image_size: int = 64
+    video: bool = False
+    num_workers: int = 2
+    seed: int = 0
+    push_to_hub: bool = False
+    private: bool = False
+    progress: bool = True
+
+    def __post_init__(self) -> None:
+        check_task(self.task)
+        if not isinstance(self.num_episodes, int) or self.num_episodes <= 0:
+            raise ValueError(f"num_episodes must be a positive integer, got {self.num_episodes!r}.")
+        if self.split not in SPLITS:
+            raise ValueError(f"Unknown split {self.split!r}; choose one of {SPLITS}.")
+        if not isinstance(self.image_size, int) or self.image_size <= 0:
+            raise ValueError(f"image_size must be a positive number of pixels, got {self.image_size!r}.")
+        if self.num_workers < 0:
+            raise ValueError(f"num_workers must be >= 0, got {self.num_workers}.")
+        if self.seed < 0:
+            raise ValueError(f"seed must be >= 0, got {self.seed}.")
+        self.root = Path(self.root) if self.root is not None else Path("data") / f"ivmc_{self.task}"
+        self.repo_id = self.repo_id or f"local/ivmc_{self.task}"
+        if self.repo_id.count("/") != 1:
+            raise ValueError(f"repo_id must look like '<user>/<name>', got {self.repo_id!r}.")
+        if self.push_to_hub and self.repo_id.startswith("local/"):
+            raise ValueError(f"--push-to-hub needs a hub repo id '<hf user>/<name>', got {self.repo_id!r}.")
+
+    def spec(self) -> dict:
+        """What the dataset in `root` must match to be resumed or reused (the episode count aside)."""
+        return staging.normalise(
+            {
+                "task": self.task,
+                "gym_id": gym_id(self.task),
+                "split": self.split,
+                "seed": self.seed,
+                "image_size": self.image_size,
+                "video": self.video,
+                "fps": DEMO_FPS,
+                "episode_steps": DEMO_EPISODE_STEPS,
+                "features": demo_features(self.image_size, self.video),
+            }
+        )
+
+
+@dataclass
+class CollectSummary:
+    """What a collection produced."""
+
+    root: str
+    repo_id: str
+    task: str
+    split: str
+    num_episodes: int
+    num_frames: int
+    attempts: int = 0
+    failed_attempts: int = 0
+    resumed_episodes: int = 0
+    already_complete: bool = False
+    pushed: bool = False
+    elapsed_s: float = 0.0
+    episode_seeds: list[int] = field(default_factory=list)
+
+
+class _Assembler:
+    """Appends staged episodes, in order, to a LeRobotDataset built in the staging folder."""
+
+    def __init__(self, cfg: CollectConfig, build_root: Path):
+        self.task_description = TASK_ENVS[cfg.task].task_description
+        self.dataset = LeRobotDataset.create(
+            repo_id=cfg.repo_id,
+            fps=DEMO_FPS,
+            features=demo_features(cfg.image_size, cfg.video),
+            root=build_root,
+            robot_type=ROBOT_TYPE,
+            use_videos=cfg.video,
+        )
+        self.episodes: list[dict] = []
+
+    def append(self, episode: staging.StagedEpisode) -> None:
+        scene = {
+            SCENE_SEED_KEY: np.array([episode.scene_seed], dtype=np.int64),
+            SCENE_OBJECT_CELL_KEY: np.array([episode.object_cell], dtype=np.int64),
+            SCENE_TARGET_CELL_KEY: np.array([episode.target_cell], dtype=np.int64),
+        }
+        for t in range(episode.num_frames):
+            self.dataset.add_frame(
+                {
+                    IMAGE_KEY: episode.images[t],
+                    STATE_KEY: episode.state[t],
+                    ENV_STATE_KEY: episode.environment_state[t],
+                    ACTION_KEY: episode.action[t],
+                    **scene,
+                    "task": self.task_description,
+                }
+            )
+        self.dataset.save_episode()
+        self.episodes.append(
+            {
+                "episode_index": len(self.episodes),
+                "attempt": episode.attempt,
+                "scene_seed": episode.scene_seed,
+                "object_cell": episode.object_cell,
+                "target_cell": episode.target_cell,
+            }
+        )
+
+
+@contextlib.contextmanager
+def _quiet_datasets() -> Iterator[None]:
+    """Silence the `datasets` progress bars LeRobot triggers on every `save_episode`."""
+    was_enabled = datasets.is_progress_bar_enabled()
+    datasets.disable_progress_bars()
+    try:
+        yield
+    finally:
+        if was_enabled:
+            datasets.enable_progress_bars()
+
+
+def _prepare_root(cfg: CollectConfig) -> Path | None:
+    """Check `root` against the config; return the staging folder to collect into, or None if complete.
+
+    Raises:
+        ValueError: `root` holds something else: another task or feature spec, another episode count,
+            or files that are not a collection of this plugin. Nothing is deleted then.
+    """
+    root, wanted = cfg.root, cfg.spec()
+    work = root / staging.WORK_DIR
+    staging.remove_tree(root / staging.TRASH_DIR)  # a finished collection killed while cleaning up
+    if work.exists() and not (work / staging.SPEC_FILE).exists():
+        staging.remove_tree(work)  # killed before anything was staged
+    if work.exists():
+        diffs = staging.spec_differences(staging.read_json(work / staging.SPEC_FILE), wanted)
+        if diffs:
+            raise ValueError(f"{root} holds an unfinished collection of another spec: {'; '.join(diffs)}.")
+        # Dataset folders next to the staging folder are a publish cut short; they are rebuilt.
+        for name in (*staging.DATASET_DIRS, "images"):
+            staging.remove_tree(root / name)
+        staging.remove_tree(work / staging.BUILD_DIR)
+        (work / staging.EPISODES_DIR).mkdir(exist_ok=True)
+        return work
+    if (root / "meta" / "info.json").exists():
+        info_path = root / staging.COLLECTION_INFO_PATH
+        if not info_path.exists():
+            raise ValueError(f"{root} holds a LeRobot dataset not made by lerobot-ivmc-collect; refusing.")
+        collection = staging.read_json(info_path)
+        diffs = staging.spec_differences(collection["spec"], wanted)
+        if diffs:
+            raise ValueError(f"{root} holds a dataset of another spec: {'; '.join(diffs)}.")
+        if collection["num_episodes"] != cfg.num_episodes:
+            raise ValueError(
+                f"{root} already holds {collection['num_episodes']} episodes, not {cfg.num_episodes}; "
+                "collect into a new --root."
+            )
+        return None
+    if root.exists() and any(root.iterdir()):
+        raise ValueError(f"{root} is not empty and holds no collection of this plugin; refusing to write.")
+    work.mkdir(parents=True)
+    staging.write_json(work / staging.SPEC_FILE, wanted)
+    (work / staging.EPISODES_DIR).mkdir()
+    return work
+
+
+def _plan(start: int, need: int, successes: dict, failures: set) -> list[int]:
+    """Unstaged attempts from `start` on that, with the staged ones, may give `need` more episodes."""
+    attempts, expected, attempt = [], 0, start
+    while expected < need:
+        if attempt not in failures:
+            expected += 1
+            if attempt not in successes:
+                attempts.append(attempt)
+        attempt += 1
+    return attempts
+
+
+def _make_pool(cfg: CollectConfig, episodes_dir: Path) -> multiprocessing.pool.Pool:
+    """Worker processes that record attempts. Never forked from this process: MuJoCo's EGL contexts and
+    torch's thread pools do not survive a fork. A fork server imports the recorder once and forks the
+    workers from its clean state, which starts them much faster than spawning each."""
+    if "forkserver" in multiprocessing.get_all_start_methods():
+        context = multiprocessing.get_context("forkserver")
+        context.set_forkserver_preload([rollout.__name__])
+    else:
+        context = multiprocessing.get_context("spawn")
+    return context.Pool(
+        cfg.num_workers,
+        initializer=rollout.init_worker,
+        initargs=(cfg.task, cfg.image_size, cfg.split, cfg.seed, str(episodes_dir)),
+    )
+
+
+def _run_collection(cfg: CollectConfig, work: Path, summary: CollectSummary) -> _Assembler:
+    """Record and assemble attempts until the build holds `num_episodes` episodes."""
+    episodes_dir = work / staging.EPISODES_DIR
+    successes, failures = staging.scan_attempts(episodes_dir)
+    if successes or failures:
+        logger.info("Resuming: %d staged episodes, %d failed attempts.", len(successes), len(failures))
+    assembler = _Assembler(cfg, work / staging.BUILD_DIR)
+    target, budget = cfg.num_episodes, _MAX_ATTEMPTS_PER_EPISODE * cfg.num_episodes + _MIN_ATTEMPT_BUDGET
+    next_attempt = 0  # the first attempt not yet assembled or skipped
+    bar = tqdm(total=target, unit="ep", desc=f"collect {cfg.task}", disable=not cfg.progress)
+    start = time.perf_counter()
+
+    def assemble_ready() -> None:
+        nonlocal next_attempt
+        while len(assembler.episodes) < target and (next_attempt in successes or next_attempt in failures):
+            if next_attempt in successes:
+                assembler.append(staging.read_episode(successes[next_attempt]))
+                frames = len(assembler.episodes) * DEMO_EPISODE_STEPS
+                bar.update(1)
+                bar.set_postfix(frames=frames, fps=f"{frames / (time.perf_counter() - start):.0f}")
+            next_attempt += 1
+
+    pool = recorder = None
+    try:
+        with _quiet_datasets():
+            assemble_ready()
+            summary.resumed_episodes = len(assembler.episodes)
+            while len(assembler.episodes) < target:
+                attempts = _plan(next_attempt, target - len(assembler.episodes), successes, failures)
+                if attempts[-1] >= budget:
+                    raise RuntimeError(
+                        f"The {cfg.task} expert failed {len(failures)} of {next_attempt} attempts; giving up "
+                        f"(staged episodes are kept in {episodes_dir})."
+                    )
+                if cfg.num_workers == 0:
+                    recorder = recorder or rollout.Recorder(
+                        cfg.task, cfg.image_size, cfg.split, cfg.seed, episodes_dir
+                    )
+                    results = map(recorder.record, attempts)
+                else:
+                    pool = pool or _make_pool(cfg, episodes_dir)
+                    results = pool.imap(rollout.record_in_worker, attempts)
+                for attempt, success in results:
+                    if success:
+                        successes[attempt] = staging.attempt_path(episodes_dir, attempt, "npz")
+                    else:
+                        failures.add(attempt)
+                    assemble_ready()
+                    if len(assembler.episodes) >= target:
+                        break
+    finally:
+        bar.close()
+        if pool is not None:
+            pool.terminate()  # attempts still in flight are not needed
+            pool.join()
+        if recorder is not None:
+            recorder.close()
+    summary.attempts = next_attempt
+    summary.failed_attempts = len([a for a in failures if a < next_attempt])
+    return assembler
+
+
+def push_dataset(root: Path, repo_id: str, private: bool = False, tags: list[str] | None = None) -> None:
+    """Publish a finished dataset with LeRobot's own `LeRobotDataset.push_to_hub`."""
+    dataset = LeRobotDataset(repo_id, root=root)
+    dataset.push_to_hub(private=private, tags=tags or ["lerobot-ivmc", "fetch", "expert-demonstrations"])
+
+
+def collect_demos(cfg: CollectConfig) -> CollectSummary:
+    """Record (or resume recording) `cfg.num_episodes` successful demonstrations into `cfg.root`.
+
+    Returns:
+        A summary of the finished dataset.
+    """
+    start = time.perf_counter()
+    summary = CollectSummary(str(cfg.root), cfg.repo_id, cfg.task, cfg.split, cfg.num_episodes, 0)
+    work = _prepare_root(cfg)
+    if work is None:
+        logger.info("%s already holds the %d requested episodes.", cfg.root, cfg.num_episodes)
+        collection = staging.read_json(cfg.root / staging.COLLECTION_INFO_PATH)
+        summary.already_complete = True
+        summary.attempts, summary.failed_attempts = collection["attempts"], collection["failed_attempts"]
+        summary.episode_seeds = [ep["scene_seed"] for ep in collection["episodes"]]
+    else:
+        assembler = _run_collection(cfg, work, summary)
+        assembler.dataset.finalize()
+        summary.episode_seeds = [ep["scene_seed"] for ep in assembler.episodes]
+        collection = {
+            "spec": cfg.spec(),
+            "repo_id": cfg.repo_id,
+            "num_episodes": cfg.num_episodes,
+            "attempts": summary.attempts,
+            "failed_attempts": summary.failed_attempts,
+            "episodes": assembler.episodes,
+        }
+        staging.write_json(work / staging.BUILD_DIR / staging.COLLECTION_INFO_PATH, collection)
+        staging.publish(work, cfg.root)
+    summary.num_frames = cfg.num_episodes * DEMO_EPISODE_STEPS
+    if cfg.push_to_hub:
+        push_dataset(cfg.root, cfg.repo_id, private=cfg.private)
+        summary.pushed = True
+    summary.elapsed_s = time.perf_counter() - start
+    return summary
+
+
+def _parse_args(argv: list[str] | None) -> CollectConfig:
+    parser = argparse.ArgumentParser(prog="lerobot-ivmc-collect", description=__doc__.split("\n")[0])
+    parser.add_argument("--task", required=True, choices=TASKS)
+    parser.add_argument("--num-episodes", type=int, required=True, help="successful demos to record")
+    parser.add_argument("--root", type=Path, default=None, help="dataset folder (default: data/ivmc_<task>)")
+    parser.add_argument("--repo-id", default=None, help="dataset id (default: local/ivmc_<task>)")
+    parser.add_argument("--split", default="train", choices=SPLITS, help="scene split of the demos")
+    parser.add_argument("--image-size", type=int, default=64, help="camera height and width in pixels")
+    parser.add_argument("--video", action="store_true", help="store the camera as mp4 instead of PNG")
+    parser.add_argument("--num-workers", type=int, default=2, help="recording processes (0: in-process)")
+    parser.add_argument("--seed", type=int, default=0, help="base seed of the attempts' scene seeds")
+    parser.add_argument("--push-to-hub", action="store_true", help="publish with LeRobotDataset.push_to_hub")
+    parser.add_argument("--private", action="store_true", help="make the hub repository private")
+    parser.add_argument("--no-progress", dest="progress", action="store_false", help="hide the progress bar")
+    args = parser.parse_args(argv)
+    try:
+        return CollectConfig(**vars(args))
+    except ValueError as error:
+        parser.error(str(error))
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Console entry point of `lerobot-ivmc-collect`."""
+    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(asctime)s %(name)s: %(message)s")
+    cfg = _parse_args(argv)
+    try:
+        summary = collect_demos(cfg)
+    except ValueError as error:
+        logger.error("%s", error)
+        return 2
+    except KeyboardInterrupt:
+        logger.warning("Interrupted: staged episodes are kept; rerun the same command to resume.")
+        return 130
+    status = "already complete" if summary.already_complete else f"{summary.elapsed_s:.1f} s"
+    print(
+        f"{summary.num_episodes} {summary.task} demos ({summary.num_frames} frames, {summary.split} scenes) "
+        f"in {summary.root} as {summary.repo_id}: {summary.attempts} attempts, {summary.failed_attempts} "
+        f"failed, {summary.resumed_episodes} resumed from staging; {status}"
+        + ("; pushed to the hub" if summary.pushed else "")
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,101 @@
+"""Recording one expert demonstration: runs in the collection's worker processes.
+
+This module imports no LeRobot code, so spawned workers start quickly; they write each finished episode to
+the staging folder themselves (see `lerobot_ivmc.datasets.staging`) and send back only its attempt index.
+"""
+
+from __future__ import annotations
+
+import signal
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from lerobot_ivmc.datasets import staging
+from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, make_task_env
+from lerobot_ivmc.envs.fetch_env import IvmcFetchEnv
+from lerobot_ivmc.envs.scene_model import CAMERA_NAME
+from lerobot_ivmc.experts import WaypointExpert, make_expert, run_expert_episode
+
+
+def attempt_seed(base_seed: int, attempt: int) -> int:
+    """Scene seed of attempt `attempt`: a fixed function of (base seed, attempt), so reruns repeat it.
+
+    Attempts are numbered 0, 1, 2, ...; the dataset keeps the successful ones in attempt order.
+    """
+    return int(np.random.SeedSequence([base_seed, attempt]).generate_state(1, dtype=np.uint32)[0])
+
+
+@dataclass
+class Recorder:
+    """An env and its expert that record attempts into a staging folder.
+
+    Args:
+        task: task name, one of `lerobot_ivmc.envs.TASKS`.
+        image_size: camera image height and width, in pixels.
+        split: scene split the seeds draw from ("train", "val", "test").
+        base_seed: the collection's `--seed`.
+        episodes_dir: where finished attempts are staged.
+    """
+
+    task: str
+    image_size: int
+    split: str
+    base_seed: int
+    episodes_dir: Path
+
+    def __post_init__(self) -> None:
+        # Demos always last DEMO_EPISODE_STEPS steps: success does not end them.
+        self.env: IvmcFetchEnv = make_task_env(
+            self.task, image_size=self.image_size, split=self.split, terminate_on_success=False
+        )
+        self.expert: WaypointExpert = make_expert(self.env)
+
+    def record(self, attempt: int) -> tuple[int, bool]:
+        """Run attempt `attempt`, stage it (episode file or failure marker), return (attempt, success)."""
+        seed = attempt_seed(self.base_seed, attempt)
+        images, states, env_states, actions = [], [], [], []
+
+        def on_step(observation: dict, action: np.ndarray, info: dict) -> None:
+            images.append(observation["pixels"][CAMERA_NAME])
+            states.append(observation["agent_pos"])
+            env_states.append(observation["environment_state"])
+            actions.append(action)
+
+        info = run_expert_episode(self.env, self.expert, seed=seed, on_step=on_step)
+        success = bool(info["is_success"]) and len(actions) == DEMO_EPISODE_STEPS
+        if not success:
+            staging.write_failure(self.episodes_dir, attempt)
+            return attempt, False
+        episode = staging.StagedEpisode(
+            attempt=attempt,
+            scene_seed=seed,
+            object_cell=int(info["scene_object_cell"]),
+            target_cell=int(info["scene_target_cell"]),
+            images=np.stack(images).astype(np.uint8),
+            state=np.stack(states).astype(np.float32),
+            environment_state=np.stack(env_states).astype(np.float32),
+            action=np.stack(actions).astype(np.float32),
+        )
+        staging.write_episode(self.episodes_dir, episode)
+        return attempt, True
+
+    def close(self) -> None:
+        self.env.close()
+
+
+_worker_recorder: Recorder | None = None
+
+
+def init_worker(task: str, image_size: int, split: str, base_seed: int, episodes_dir: str) -> None:
+    """Pool initializer: build the worker's env once. Ctrl-C is left to the parent, which stops the pool."""
+    global _worker_recorder
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _worker_recorder = Recorder(task, image_size, split, base_seed, Path(episodes_dir))
+
+
+def record_in_worker(attempt: int) -> tuple[int, bool]:
+    """Pool task: record one attempt with the worker's recorder."""
+    assert _worker_recorder is not None, "init_worker() must run first"
+    return _worker_recorder.record(attempt)

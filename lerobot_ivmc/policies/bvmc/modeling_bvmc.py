@@ -1,0 +1,159 @@
+"""Bayesian VMC: VMC whose layers after the LSTM are concrete dropout + fully connected pairs.
+
+At inference the CNN and LSTM run once per step and only the dropout + fully connected head runs S times,
+as one batched pass; the executed action is the mean of the samples and the uncertainty is the trace of
+the covariance of the transformed delta-EE samples (the paper's Eqs. (weighted-concat), (unc-tr-cov)).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import torch
+from torch import Tensor, nn
+
+from lerobot_ivmc.policies.bvmc.concrete_dropout import ConcreteDropoutHead
+from lerobot_ivmc.policies.bvmc.configuration_bvmc import DEFAULT_DATASET_SIZE, BVMCConfig
+from lerobot_ivmc.policies.bvmc.uncertainty import trace_cov_uncertainty
+from lerobot_ivmc.policies.vmc.modeling_vmc import VMCPolicy, gripper_commands
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass
+class MCPrediction:
+    """Result of one Monte Carlo control step (`BVMCPolicy.sample`).
+
+    Attributes:
+        mean_action: (B, 4) action to execute: mean delta EE, and the gripper command (-1/0/+1) of the
+            class with the highest mean probability.
+        uncertainty: (B,) trace of the covariance of the transformed delta-EE samples, Eq. (unc-tr-cov).
+        embedding: (B, lstm_dim) LSTM embedding e_t.
+        samples: (B, S, 4) sampled actions: delta EE and each sample's most likely gripper command.
+        gripper_probs: (B, S, 3) gripper probabilities (close, no-op, open) per sample.
+    """
+
+    mean_action: Tensor
+    uncertainty: Tensor
+    embedding: Tensor
+    samples: Tensor
+    gripper_probs: Tensor
+
+
+class BVMCPolicy(VMCPolicy):
+    """Bayesian VMC with Monte Carlo inference.
+
+    Attributes:
+        mc_sampling: draw dropout masks at inference; initialised from `config.mc_sampling`. Training
+            (`forward`) always draws them, whatever this flag and `self.training` say.
+
+    Args:
+        config: the policy config.
+        dataset_meta: LeRobot dataset metadata; its `total_frames` gives N when `config.dataset_size` is None.
+    """
+
+    config_class = BVMCConfig
+    name = "bvmc"
+
+    def __init__(self, config: BVMCConfig, dataset_meta=None, **kwargs):
+        super().__init__(config, dataset_meta=dataset_meta, **kwargs)
+        self.mc_sampling = config.mc_sampling
+
+    def _make_head(self, config: BVMCConfig, dataset_meta=None) -> nn.Module:
+        if config.dataset_size is None:
+            total = getattr(dataset_meta, "total_frames", None)
+            if total:
+                config.dataset_size = int(total)
+            else:
+                logger.warning("dataset_size not set and no dataset given: using N=%d.", DEFAULT_DATASET_SIZE)
+                config.dataset_size = DEFAULT_DATASET_SIZE
+        n = config.dataset_size
+        return ConcreteDropoutHead(
+            in_dim=config.lstm_dim,
+            hidden_dim=config.fc_dim,
+            num_layers=config.num_fc_layers,
+            init_p=config.dropout_init,
+            temperature=config.dropout_temperature,
+            weight_reg=config.length_scale**2 / n,
+            dropout_reg=2.0 / n,
+        )
+
+    def dropout_probabilities(self) -> list[float]:
+        """The learned dropout probability of each concrete dropout layer."""
+        return self.net.head.dropout_probabilities()
+
+    def draw_noise(self, batch_size: int, num_samples: int) -> list[Tensor]:
+        """Uniform noise fixing the masks of every dropout layer: a list of (B, S, K_l) tensors."""
+        device = self.net.decoder.weight.device
+        return [
+            torch.rand(shape, device=device) for shape in self.net.head.noise_shapes(batch_size, num_samples)
+        ]
+
+    def sample_head(
+        self, embedding: Tensor, num_samples: int, noise: list[Tensor] | None = None
+    ) -> tuple[Tensor, Tensor]:
+        """Run the dropout + fully connected head S times on e_t, as one batched pass.
+
+        Args:
+            embedding: (B, lstm_dim) LSTM embedding.
+            num_samples: S.
+            noise: optional uniform noise per dropout layer, each (B, S, K_l), to fix the masks.
+
+        Returns:
+            (B, S, 3) delta-EE samples and (B, S, 3) gripper probabilities. Without `mc_sampling` the
+            head runs once, deterministically, and its output is repeated S times.
+        """
+        if self.mc_sampling:
+            expanded = embedding[:, None].expand(-1, num_samples, -1)
+            delta_ee, logits, _, _ = self.net.decode(expanded, stochastic=True, noise=noise)
+        else:
+            delta_ee, logits, _, _ = self.net.decode(embedding[:, None], stochastic=False)
+            delta_ee, logits = delta_ee.expand(-1, num_samples, -1), logits.expand(-1, num_samples, -1)
+        return delta_ee, logits.softmax(dim=-1)
+
+    @torch.no_grad()
+    def sample(
+        self, batch: dict[str, Tensor], num_samples: int | None = None, noise: list[Tensor] | None = None
+    ) -> MCPrediction:
+        """One control step: mean action, uncertainty, embedding e_t and the S sampled actions.
+
+        The CNN and LSTM run once and advance the LSTM memory by one step (save it first with
+        `get_memory` to back-track); the head runs S times as one batched pass.
+
+        Args:
+            batch: preprocessed observation: image (B, 3, H, W), `observation.state` (B, D).
+            num_samples: S >= 2; defaults to `config.num_samples`.
+            noise: optional uniform noise per dropout layer, each (B, S, K_l) (see `draw_noise`).
+
+        Returns:
+            The `MCPrediction`.
+        """
+        num_samples = self.config.num_samples if num_samples is None else num_samples
+        if num_samples < 2:
+            raise ValueError(f"The uncertainty needs at least 2 samples, got num_samples={num_samples}.")
+        self.eval()
+        embedding = self.step_embedding(batch)
+        delta_ee, probs = self.sample_head(embedding, num_samples, noise)
+        return make_prediction(embedding, delta_ee, probs, self.config.uncertainty_lambda)
+
+    @torch.no_grad()
+    def select_action(self, batch: dict[str, Tensor], **kwargs) -> Tensor:
+        """The action to execute, (B, 4): the Monte Carlo mean when `mc_sampling` is set (one LSTM step)."""
+        if not self.mc_sampling:
+            return super().select_action(batch)
+        return self.sample(batch).mean_action
+
+
+def make_prediction(embedding: Tensor, delta_ee: Tensor, probs: Tensor, lam: float) -> MCPrediction:
+    """Assemble an `MCPrediction` from (B, S, 3) delta-EE samples and (B, S, 3) gripper probabilities."""
+    mean_probs = probs.mean(dim=1)
+    mean_action = torch.cat([delta_ee.mean(dim=1), gripper_commands(mean_probs.argmax(dim=-1))[:, None]], -1)
+    samples = torch.cat([delta_ee, gripper_commands(probs.argmax(dim=-1))[..., None]], dim=-1)
+    return MCPrediction(
+        mean_action=mean_action,
+        uncertainty=trace_cov_uncertainty(delta_ee, lam),
+        embedding=embedding,
+        samples=samples,
+        gripper_probs=probs,
+    )

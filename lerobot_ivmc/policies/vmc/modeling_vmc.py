@@ -1,0 +1,237 @@
+"""VMC: the deterministic visuomotor controller, and the network it shares with Bayesian VMC.
+
+CNN over the RGB frame -> spatial feature map concatenated with the tiled proprioception -> LSTM ->
+#fc fully connected layers -> four heads: delta end-effector command (MSE), gripper close / no-op / open
+(cross-entropy), auxiliary end-effector and object positions (MSE); the four losses equally weighted
+(the paper's Eq. (loss-vmc)). `BVMCPolicy` swaps the fully connected layers for concrete dropout ones.
+"""
+
+from __future__ import annotations
+
+import torch
+import torch.nn.functional as F  # noqa: N812
+from lerobot.policies.pretrained import PreTrainedPolicy
+from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
+from torch import Tensor, nn
+
+from lerobot_ivmc.policies.vmc.configuration_vmc import AUX_DIM, DELTA_EE_DIM, GRIPPER_COMMANDS, VMCConfig
+
+NUM_GRIPPER_CLASSES = len(GRIPPER_COMMANDS)
+# LSTM memory (h, c), each (B, lstm_dim).
+Memory = tuple[Tensor, Tensor]
+
+
+class MLPHead(nn.Module):
+    """[linear -> ReLU] x num_layers: VMC's deterministic fully connected layers after the LSTM."""
+
+    def __init__(self, in_dim: int, hidden_dim: int, num_layers: int):
+        super().__init__()
+        dims = [in_dim] + [hidden_dim] * num_layers
+        self.linears = nn.ModuleList(nn.Linear(a, b) for a, b in zip(dims[:-1], dims[1:], strict=True))
+        self.out_dim = hidden_dim
+
+    def forward(self, x: Tensor, stochastic: bool = False, noise: list[Tensor] | None = None) -> Tensor:
+        """(..., in_dim) -> (..., hidden_dim). `stochastic` and `noise` are ignored: nothing is random."""
+        for linear in self.linears:
+            x = torch.relu(linear(x))
+        return x
+
+    def regularization(self) -> Tensor:
+        return self.linears[0].weight.new_zeros(())
+
+    def dropout_probabilities(self) -> list[float]:
+        return []
+
+
+class VisuomotorNet(nn.Module):
+    """CNN + tiled state -> LSTM cell -> head -> decoder.
+
+    Args:
+        config: the policy config (architecture fields).
+        image_shape: (3, H, W) of the camera.
+        state_dim: size of `observation.state`.
+        head: the layers between the LSTM embedding and the decoder, `MLPHead` or a concrete dropout head.
+    """
+
+    def __init__(self, config: VMCConfig, image_shape: tuple[int, ...], state_dim: int, head: nn.Module):
+        super().__init__()
+        layers: list[nn.Module] = []
+        in_ch = image_shape[0]
+        for out_ch in config.conv_channels:
+            layers += [nn.Conv2d(in_ch, out_ch, kernel_size=3, stride=2, padding=1), nn.ReLU()]
+            in_ch = out_ch
+        self.cnn = nn.Sequential(*layers)
+        with torch.no_grad():
+            _, channels, height, width = self.cnn(torch.zeros(1, *image_shape)).shape
+        self.map_size = (height, width)
+        self.lstm = nn.LSTMCell((channels + state_dim) * height * width, config.lstm_dim)
+        self.head = head
+        # delta EE (3) | gripper logits (3) | EE position (3) | object position (3)
+        self.decoder = nn.Linear(head.out_dim, DELTA_EE_DIM + NUM_GRIPPER_CLASSES + AUX_DIM)
+
+    def encode(self, images: Tensor, state: Tensor) -> Tensor:
+        """State representation s_t: (N, 3, H, W) images, (N, D_state) -> (N, D_s)."""
+        fmap = self.cnn(images)
+        tiled = state[:, :, None, None].expand(-1, -1, *self.map_size)
+        return torch.cat([fmap, tiled], dim=1).flatten(1)
+
+    def step(self, s: Tensor, memory: Memory | None) -> Memory:
+        """One LSTM step: (B, D_s) and memory (or None for zeros) -> new memory (h, c); h is e_t."""
+        return self.lstm(s, memory)
+
+    def unroll(self, s: Tensor, is_pad: Tensor | None = None) -> Tensor:
+        """Run the LSTM over a window from zero memory; padded steps leave the memory untouched.
+
+        LeRobot pads only before an episode's start, so a padded window equals a rollout from `reset()`.
+
+        Args:
+            s: (B, K, D_s) state representations.
+            is_pad: optional (B, K) bool, True for padded steps.
+
+        Returns:
+            (B, lstm_dim) embedding e_t of the last step.
+        """
+        memory: Memory | None = None
+        for k in range(s.shape[1]):
+            new = self.lstm(s[:, k], memory)
+            if is_pad is not None and memory is not None:
+                keep = is_pad[:, k, None]
+                new = (torch.where(keep, memory[0], new[0]), torch.where(keep, memory[1], new[1]))
+            elif is_pad is not None:
+                keep = is_pad[:, k, None]
+                new = (new[0].masked_fill(keep, 0.0), new[1].masked_fill(keep, 0.0))
+            memory = new
+        return memory[0]
+
+    def decode(self, e: Tensor, stochastic: bool, noise: list[Tensor] | None = None) -> tuple[Tensor, ...]:
+        """Head and decoder: (..., lstm_dim) -> delta EE, gripper logits, EE position, object position.
+
+        Returns:
+            (..., 3) delta EE, (..., 3) gripper logits, (..., 3) EE and (..., 3) object positions
+            (the positions in the normalised space of `observation.environment_state`).
+        """
+        out = self.decoder(self.head(e, stochastic, noise))
+        return out.split([DELTA_EE_DIM, NUM_GRIPPER_CLASSES, AUX_DIM // 2, AUX_DIM // 2], dim=-1)
+
+
+def gripper_commands(class_index: Tensor) -> Tensor:
+    """Map gripper class indices (0, 1, 2) to commands (-1, 0, +1), as float."""
+    return class_index.to(torch.get_default_dtype()) - 1.0
+
+
+def gripper_labels(command: Tensor) -> Tensor:
+    """Map gripper commands in [-1, 1] to class indices: round to the nearest of -1, 0, +1, then shift."""
+    return (torch.round(command).clamp(-1, 1) + 1).long()
+
+
+class VMCPolicy(PreTrainedPolicy):
+    """Deterministic visuomotor controller. At rollout the LSTM memory runs along the whole trajectory.
+
+    Args:
+        config: the policy config.
+        dataset_meta: LeRobot dataset metadata (`make_policy` passes it); used by Bayesian VMC for N.
+    """
+
+    config_class = VMCConfig
+    name = "vmc"
+
+    def __init__(self, config: VMCConfig, dataset_meta=None, **kwargs):
+        super().__init__(config)
+        config.validate_features()
+        self.config = config
+        self.image_key = config.image_feature_key
+        image_shape = tuple(config.image_features[self.image_key].shape)
+        state_dim = config.input_features[OBS_STATE].shape[0]
+        self.net = VisuomotorNet(config, image_shape, state_dim, self._make_head(config, dataset_meta))
+        self._memory: Memory | None = None
+
+    def _make_head(self, config: VMCConfig, dataset_meta=None) -> nn.Module:
+        """The layers after the LSTM; Bayesian VMC overrides this."""
+        return MLPHead(config.lstm_dim, config.fc_dim, config.num_fc_layers)
+
+    def get_optim_params(self) -> list[dict]:
+        return [{"params": [p for p in self.parameters() if p.requires_grad]}]
+
+    def reset(self) -> None:
+        """Clear the LSTM memory (call at every episode start)."""
+        self._memory = None
+
+    def get_memory(self) -> Memory | None:
+        """A copy of the LSTM memory (h, c), each (B, lstm_dim), or None before the first step."""
+        return None if self._memory is None else (self._memory[0].clone(), self._memory[1].clone())
+
+    def set_memory(self, memory: Memory | None) -> None:
+        """Restore an LSTM memory from `get_memory` (e.g. to back-track); None clears it."""
+        self._memory = None if memory is None else (memory[0].clone(), memory[1].clone())
+
+    def forward(self, batch: dict[str, Tensor]) -> tuple[Tensor, dict[str, float]]:
+        """Training loss on the last step of each K-frame window.
+
+        Args:
+            batch: image (B, K, 3, H, W), `observation.state` (B, K, D), `observation.environment_state`
+                (B, K, 6) (the targets), `action` (B, 4), optional `observation.state_is_pad` (B, K).
+                Tensors without the K axis are taken as K = 1.
+
+        Returns:
+            The total loss and its parts as floats.
+        """
+        images, state, aux, action = (
+            batch[self.image_key],
+            batch[OBS_STATE],
+            batch[OBS_ENV_STATE],
+            batch[ACTION],
+        )
+        if images.dim() == 4:
+            images, state, aux = images[:, None], state[:, None], aux[:, None]
+        if action.dim() == 3:
+            action = action[:, -1]
+        b, k = images.shape[:2]
+        s = self.net.encode(images.flatten(0, 1), state.flatten(0, 1)).unflatten(0, (b, k))
+        e = self.net.unroll(s, batch.get(f"{OBS_STATE}_is_pad"))
+        # Masks are always drawn in training (concrete dropout must not depend on `self.training`).
+        delta_ee, logits, ee_pos, obj_pos = self.net.decode(e, stochastic=True)
+        target_aux = aux[:, -1]
+        losses = {
+            "loss_delta_ee": F.mse_loss(delta_ee, action[:, :DELTA_EE_DIM]),
+            "loss_gripper": F.cross_entropy(logits, gripper_labels(action[:, DELTA_EE_DIM])),
+            "loss_ee_pos": F.mse_loss(ee_pos, target_aux[:, : AUX_DIM // 2]),
+            "loss_obj_pos": F.mse_loss(obj_pos, target_aux[:, AUX_DIM // 2 :]),
+        }
+        regularization = self.net.head.regularization()
+        loss = torch.stack(list(losses.values())).sum() + regularization
+        info = {name: value.item() for name, value in losses.items()}
+        info["regularization"] = regularization.item()
+        for i, p in enumerate(self.net.head.dropout_probabilities()):
+            info[f"dropout_p_{i}"] = p
+        return loss, info
+
+    def _current_obs(self, batch: dict[str, Tensor]) -> tuple[Tensor, Tensor]:
+        images, state = batch[self.image_key], batch[OBS_STATE]
+        if images.dim() != 4 or state.dim() != 2:
+            raise ValueError(
+                f"Rollout expects one frame per step: image (B, 3, H, W) and state (B, D); got "
+                f"{tuple(images.shape)} and {tuple(state.shape)}."
+            )
+        return images, state
+
+    def step_embedding(self, batch: dict[str, Tensor]) -> Tensor:
+        """Feed one frame to the CNN and LSTM, update the memory and return e_t, (B, lstm_dim)."""
+        images, state = self._current_obs(batch)
+        memory = self._memory
+        if memory is not None and memory[0].shape[0] != images.shape[0]:
+            raise ValueError(f"Memory holds {memory[0].shape[0]} rollouts but the batch {images.shape[0]}.")
+        self._memory = self.net.step(self.net.encode(images, state), memory)
+        return self._memory[0]
+
+    @torch.no_grad()
+    def select_action(self, batch: dict[str, Tensor], **kwargs) -> Tensor:
+        """The action to execute, (B, 4), gripper in {-1, 0, +1}; advances the LSTM memory by one step."""
+        self.eval()
+        embedding = self.step_embedding(batch)
+        delta_ee, logits, _, _ = self.net.decode(embedding, stochastic=False)
+        return torch.cat([delta_ee, gripper_commands(logits.argmax(dim=-1))[:, None]], dim=-1)
+
+    @torch.no_grad()
+    def predict_action_chunk(self, batch: dict[str, Tensor], **kwargs) -> Tensor:
+        """A chunk of one action, (B, 1, 4); advances the LSTM memory like `select_action`."""
+        return self.select_action(batch)[:, None]
