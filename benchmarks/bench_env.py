@@ -1,7 +1,7 @@
 """Env throughput with and without rendering, and the scripted experts' success rate per task.
 
-    python benchmarks/bench_env.py                 # 100 expert episodes per task
-    python benchmarks/bench_env.py --episodes 500  # the README's figure
+python benchmarks/bench_env.py                 # 100 expert episodes per task
+python benchmarks/bench_env.py --episodes 500  # the README's figure
 """
 
 import argparse

@@ -151,7 +151,8 @@ class IvmcFetchEnv(gym.Env, EzPickle):
             index = int(options["scene_index"])
             if not 0 <= index < len(self.scenes):
                 raise ValueError(
-                    f"scene_index {index} is out of range: split {self.split!r} has {len(self.scenes)} scenes."
+                    f"scene_index {index} is out of range: split {self.split!r} has "
+                    f"{len(self.scenes)} scenes."
                 )
         else:
             index = int(self.np_random.integers(len(self.scenes)))
@@ -272,7 +273,9 @@ class IvmcFetchEnv(gym.Env, EzPickle):
         return gym.spaces.Dict(spaces)
 
     def _get_obs(self) -> dict[str, Any]:
-        joints = [mujoco_utils.get_joint_qpos(self.model, self.data, j)[0] for j in ARM_JOINTS + FINGER_JOINTS]
+        joints = [
+            mujoco_utils.get_joint_qpos(self.model, self.data, j)[0] for j in ARM_JOINTS + FINGER_JOINTS
+        ]
         obs: dict[str, Any] = {
             "agent_pos": np.asarray(joints, dtype=np.float64),
             "environment_state": np.concatenate([self.grip_position, self.object_position]),

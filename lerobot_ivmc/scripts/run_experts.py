@@ -53,8 +53,9 @@ class ExpertRunConfig:
 
 def run_task(cfg: ExpertRunConfig, task: str) -> dict:
     """Run the expert `cfg.n_episodes` times on `task`; return its success rates per milestone."""
-    env = make_task_env(task, obs_type="state", render_size=cfg.image_size, split=cfg.split,
-                        terminate_on_success=False)
+    env = make_task_env(
+        task, obs_type="state", render_size=cfg.image_size, split=cfg.split, terminate_on_success=False
+    )
     expert = make_expert(env)
     milestones = {name: [] for name in env.subtasks}
     video_dir = cfg.output_dir / "videos" / task
@@ -70,7 +71,7 @@ def run_task(cfg: ExpertRunConfig, task: str) -> dict:
                 expert,
                 seed=cfg.seed + episode,
                 max_steps=DEMO_EPISODE_STEPS,
-                on_step=(lambda *_: frames.append(env.render())) if record else None,
+                on_step=(lambda *_, frames=frames: frames.append(env.render())) if record else None,
             )
             for name, reached in info["subtasks"].items():
                 milestones[name].append(bool(reached))

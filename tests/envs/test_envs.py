@@ -94,8 +94,12 @@ def test_delta_action_moves_the_end_effector():
 
 @pytest.mark.parametrize(
     ("kwargs", "message"),
-    [({"image_size": 0}, "image_size must be a positive"), ({"render_size": -4}, "render_size"),
-     ({"obs_type": "depth"}, "Unknown obs_type"), ({"split": "holdout"}, "Unknown scene split")],
+    [
+        ({"image_size": 0}, "image_size must be a positive"),
+        ({"render_size": -4}, "render_size"),
+        ({"obs_type": "depth"}, "Unknown obs_type"),
+        ({"split": "holdout"}, "Unknown scene split"),
+    ],
 )
 def test_bad_env_arguments_are_refused(kwargs, message):
     with pytest.raises(ValueError, match=message):

@@ -46,7 +46,8 @@ class PickReachEnv(IvmcFetchEnv):
     def _subtask_status(self) -> dict[str, bool]:
         end = self.free_end
         touches = (
-            xy_distance(end, self.target_position) < self.target_radius and end[2] < TABLE_TOP_Z + TOUCH_HEIGHT
+            xy_distance(end, self.target_position) < self.target_radius
+            and end[2] < TABLE_TOP_Z + TOUCH_HEIGHT
         )
         return {
             "reach": distance(self.grip_position, self.grasp_point) < PICK_REACH_DISTANCE,
