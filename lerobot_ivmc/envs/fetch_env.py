@@ -56,6 +56,8 @@ _WORKSPACE_LOW = np.array([1.0, 0.35, scene_model.TABLE_TOP_Z + 0.04])
 _WORKSPACE_HIGH = np.array([1.6, 1.15, scene_model.TABLE_TOP_Z + 0.5])
 # The arm's initial configuration, taken from gymnasium-robotics' FetchPickAndPlace setup.
 _INITIAL_QPOS = {"robot0:slide0": 0.405, "robot0:slide1": 0.48, "robot0:slide2": 0.0}
+# Fixed shuffle of a split's scenes that seeds index into (see `reset`).
+_SCENE_ORDER_SEED = 7
 _INITIAL_GRIPPER_OFFSET = np.array([-0.498, 0.005, -0.431 + 0.2])
 
 
@@ -104,6 +106,7 @@ class IvmcFetchEnv(gym.Env, EzPickle):
         self.render_size = int(render_size)
         self.split = split
         self.scenes = scenes_of_split(self.all_scenes(), split)
+        self._scene_order = np.random.default_rng(_SCENE_ORDER_SEED).permutation(len(self.scenes))
         self.terminate_on_success = terminate_on_success
         self.render_mode = render_mode
 
@@ -144,7 +147,12 @@ class IvmcFetchEnv(gym.Env, EzPickle):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, Any], dict[str, Any]]:
-        """Start an episode on a scene of `split`: `options["scene_index"]` picks one, else the seed does."""
+        """Start an episode on a scene of `split`.
+
+        `options["scene_index"]` picks a scene directly. Otherwise seed ``s`` picks scene ``s mod n`` of a
+        fixed shuffle of the split's ``n`` scenes, so seeds 0..n-1 visit every scene once (evaluation on
+        distinct held-out scenes); an unseeded reset draws a scene from the env's random generator.
+        """
         super().reset(seed=seed)
         options = options or {}
         if "scene_index" in options:
@@ -154,6 +162,8 @@ class IvmcFetchEnv(gym.Env, EzPickle):
                     f"scene_index {index} is out of range: split {self.split!r} has "
                     f"{len(self.scenes)} scenes."
                 )
+        elif seed is not None:
+            index = int(self._scene_order[seed % len(self.scenes)])
         else:
             index = int(self.np_random.integers(len(self.scenes)))
         self.scene = self.scenes[index]

@@ -41,6 +41,17 @@ def test_scene_splits_are_disjoint_and_cover_all_scenes(task):
     assert len(splits["test"]) >= 50, "the paper evaluates on held-out scenes: the test split must be large"
 
 
+def test_seeds_zero_to_n_minus_one_visit_every_scene_of_the_split_once():
+    env = make_task_env("pick_place", obs_type="state", split="test")
+    visited = []
+    for seed in range(len(env.scenes)):
+        env.reset(seed=seed)
+        visited.append(env.scene)
+    assert set(visited) == set(env.scenes) and len(visited) == len(set(visited))
+    first_cells = [scene.object_cell for scene in visited[:10]]
+    assert len(set(first_cells)) > 3, "consecutive seeds should spread over the table, not walk the grid"
+
+
 def test_reset_draws_only_scenes_of_its_split():
     env = make_task_env("pick_place", obs_type="state", split="test")
     test_scenes = set(env.scenes)
