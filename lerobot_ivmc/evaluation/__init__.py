@@ -1,0 +1,1 @@
+"""Closed-loop evaluation on LeRobot's rollout machinery, with the paper's subtask metrics."""
