@@ -48,13 +48,12 @@ class ConcreteDropout(nn.Module):
         """
         if not stochastic:
             return x
-        u = torch.rand_like(x) if noise is None else noise
-        p, eps = self.p, self.eps
-        drop_logit = (
-            torch.log(p + eps) - torch.log(1.0 - p + eps) + torch.log(u + eps) - torch.log(1.0 - u + eps)
-        )
-        drop = torch.sigmoid(drop_logit / self.temperature)
-        return x * (1.0 - drop) / (1.0 - p)
+        u = torch.rand_like(x, memory_format=torch.contiguous_format) if noise is None else noise
+        # log p - log(1 - p) is p_logit exactly; logit(u, eps) = log u - log(1 - u) with u clamped to
+        # [eps, 1 - eps]. The keep mask 1 - z = sigmoid(-(p_logit + logit(u)) / temperature).
+        # In place on the fresh logit tensor (fewer allocations; autograd-safe: logit saves its input).
+        keep = torch.logit(u, self.eps).add_(self.p_logit).mul_(-1.0 / self.temperature).sigmoid_()
+        return x * keep / (1.0 - self.p)
 
     def regularization(self, weight: Tensor, weight_reg: float, dropout_reg: float) -> Tensor:
         """weight_reg * sum(W^2) / (1 - p) + dropout_reg * K * (p log p + (1 - p) log(1 - p)).

@@ -30,15 +30,21 @@ class MCPrediction:
             class with the highest mean probability.
         uncertainty: (B,) trace of the covariance of the transformed delta-EE samples, Eq. (unc-tr-cov).
         embedding: (B, lstm_dim) LSTM embedding e_t.
-        samples: (B, S, 4) sampled actions: delta EE and each sample's most likely gripper command.
+        delta_ee_samples: (B, S, 3) sampled delta end-effector commands.
         gripper_probs: (B, S, 3) gripper probabilities (close, no-op, open) per sample.
     """
 
     mean_action: Tensor
     uncertainty: Tensor
     embedding: Tensor
-    samples: Tensor
+    delta_ee_samples: Tensor
     gripper_probs: Tensor
+
+    @property
+    def samples(self) -> Tensor:
+        """(B, S, 4) sampled actions: delta EE and each sample's most likely gripper command."""
+        gripper = gripper_commands(self.gripper_probs.argmax(dim=-1))[..., None]
+        return torch.cat([self.delta_ee_samples, gripper], dim=-1)
 
 
 class BVMCPolicy(VMCPolicy):
@@ -129,31 +135,44 @@ class BVMCPolicy(VMCPolicy):
         Returns:
             The `MCPrediction`.
         """
+        embedding, delta_ee, probs = self._mc_step(batch, num_samples, noise)
+        return make_prediction(embedding, delta_ee, probs, self.config.uncertainty_lambda)
+
+    def _mc_step(
+        self, batch: dict[str, Tensor], num_samples: int | None, noise: list[Tensor] | None
+    ) -> tuple[Tensor, Tensor, Tensor]:
+        """CNN + LSTM once, head S times: e_t (B, H), delta-EE samples (B, S, 3), probabilities (B, S, 3)."""
         num_samples = self.config.num_samples if num_samples is None else num_samples
         if num_samples < 2:
             raise ValueError(f"The uncertainty needs at least 2 samples, got num_samples={num_samples}.")
-        self.eval()
         embedding = self.step_embedding(batch)
-        delta_ee, probs = self.sample_head(embedding, num_samples, noise)
-        return make_prediction(embedding, delta_ee, probs, self.config.uncertainty_lambda)
+        return (embedding, *self.sample_head(embedding, num_samples, noise))
 
     @torch.no_grad()
     def select_action(self, batch: dict[str, Tensor], **kwargs) -> Tensor:
-        """The action to execute, (B, 4): the Monte Carlo mean when `mc_sampling` is set (one LSTM step)."""
+        """The action to execute, (B, 4): the Monte Carlo mean when `mc_sampling` is set (one LSTM step).
+
+        Skips the uncertainty; call `sample` to get it.
+        """
         if not self.mc_sampling:
             return super().select_action(batch)
-        return self.sample(batch).mean_action
+        self.eval()
+        _, delta_ee, probs = self._mc_step(batch, None, None)
+        return mean_action(delta_ee, probs)
+
+
+def mean_action(delta_ee: Tensor, probs: Tensor) -> Tensor:
+    """(B, 4) mean delta EE of the (B, S, 3) samples; gripper: the class of highest mean probability."""
+    gripper = gripper_commands(probs.sum(dim=1).argmax(dim=-1))  # argmax of the sum = of the mean
+    return torch.cat([delta_ee.mean(dim=1), gripper[:, None]], dim=-1)
 
 
 def make_prediction(embedding: Tensor, delta_ee: Tensor, probs: Tensor, lam: float) -> MCPrediction:
     """Assemble an `MCPrediction` from (B, S, 3) delta-EE samples and (B, S, 3) gripper probabilities."""
-    mean_probs = probs.mean(dim=1)
-    mean_action = torch.cat([delta_ee.mean(dim=1), gripper_commands(mean_probs.argmax(dim=-1))[:, None]], -1)
-    samples = torch.cat([delta_ee, gripper_commands(probs.argmax(dim=-1))[..., None]], dim=-1)
     return MCPrediction(
-        mean_action=mean_action,
+        mean_action=mean_action(delta_ee, probs),
         uncertainty=trace_cov_uncertainty(delta_ee, lam),
         embedding=embedding,
-        samples=samples,
+        delta_ee_samples=delta_ee,
         gripper_probs=probs,
     )

@@ -49,7 +49,5 @@ def trace_cov_uncertainty(delta_ee_samples: Tensor, lam: float) -> Tensor:
         raise ValueError(f"The sample covariance needs at least 2 samples, got S={num_samples}.")
     if not 0.0 <= lam <= 1.0:
         raise ValueError(f"lambda must lie in [0, 1], got {lam}.")
-    x = weighted_norm_direction(delta_ee_samples, lam)
-    centred = x - x.mean(dim=-2, keepdim=True)
-    # Tr(cov) is the sum of the per-dimension variances.
-    return centred.square().sum(dim=(-2, -1)) / (num_samples - 1)
+    # Tr(cov) is the sum of the per-dimension unbiased variances.
+    return weighted_norm_direction(delta_ee_samples, lam).var(dim=-2).sum(dim=-1)

@@ -91,17 +91,15 @@ class VisuomotorNet(nn.Module):
         Returns:
             (B, lstm_dim) embedding e_t of the last step.
         """
-        memory: Memory | None = None
+        h = c = s.new_zeros(s.shape[0], self.lstm.hidden_size)
         for k in range(s.shape[1]):
-            new = self.lstm(s[:, k], memory)
-            if is_pad is not None and memory is not None:
+            h_new, c_new = self.lstm(s[:, k], (h, c))
+            if is_pad is None:
+                h, c = h_new, c_new
+            else:
                 keep = is_pad[:, k, None]
-                new = (torch.where(keep, memory[0], new[0]), torch.where(keep, memory[1], new[1]))
-            elif is_pad is not None:
-                keep = is_pad[:, k, None]
-                new = (new[0].masked_fill(keep, 0.0), new[1].masked_fill(keep, 0.0))
-            memory = new
-        return memory[0]
+                h, c = torch.where(keep, h, h_new), torch.where(keep, c, c_new)
+        return h
 
     def decode(self, e: Tensor, stochastic: bool, noise: list[Tensor] | None = None) -> tuple[Tensor, ...]:
         """Head and decoder: (..., lstm_dim) -> delta EE, gripper logits, EE position, object position.
@@ -129,7 +127,7 @@ class VMCPolicy(PreTrainedPolicy):
 
     Args:
         config: the policy config.
-        dataset_meta: LeRobot dataset metadata (`make_policy` passes it); used by Bayesian VMC for N.
+        dataset_meta: LeRobot dataset metadata (`make_policy` passes it); Bayesian VMC reads N from it.
     """
 
     config_class = VMCConfig
@@ -138,7 +136,6 @@ class VMCPolicy(PreTrainedPolicy):
     def __init__(self, config: VMCConfig, dataset_meta=None, **kwargs):
         super().__init__(config)
         config.validate_features()
-        self.config = config
         self.image_key = config.image_feature_key
         image_shape = tuple(config.image_features[self.image_key].shape)
         state_dim = config.input_features[OBS_STATE].shape[0]
