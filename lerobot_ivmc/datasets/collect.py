@@ -10,6 +10,14 @@ keeps the successful attempts in attempt order, so the same arguments always giv
 Workers record attempts in parallel and stage each one durably; this process assembles the staged episodes
 in order into a LeRobotDataset with LeRobot's own writer. Killed at any moment and rerun with the same
 arguments, it continues from what was staged (see `lerobot_ivmc.datasets.staging`).
+
+Where the scene setup is recorded: every frame carries `scene.seed`, `scene.object_cell` and
+`scene.target_cell`; `meta/ivmc_collection.json` holds the collection spec (task, scene split, base seed,
+image size, features) and each episode's attempt index and scene. (LeRobot's own `info.json` "splits"
+entry is its episode range, always "train", unrelated to the scene split.)
+
+Called from Python, `collect_demos` starts its workers with a fork server, so the calling script needs the
+usual ``if __name__ == "__main__":`` guard.
 """
 
 from __future__ import annotations
@@ -21,6 +29,7 @@ import multiprocessing
 import multiprocessing.pool
 import sys
 import time
+import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -172,7 +181,10 @@ class _Assembler:
                     "task": self.task_description,
                 }
             )
-        self.dataset.save_episode()
+        with warnings.catch_warnings():
+            # `datasets` warns when it casts LeRobot's shape-(1,) arrays to scalar columns; harmless.
+            warnings.filterwarnings("ignore", "Conversion of an array with ndim > 0", DeprecationWarning)
+            self.dataset.save_episode()
         self.episodes.append(
             {
                 "episode_index": len(self.episodes),
@@ -253,9 +265,12 @@ def _plan(start: int, need: int, successes: dict, failures: set) -> list[int]:
 
 
 def _make_pool(cfg: CollectConfig, episodes_dir: Path) -> multiprocessing.pool.Pool:
-    """Worker processes that record attempts. Never forked from this process: MuJoCo's EGL contexts and
-    torch's thread pools do not survive a fork. A fork server imports the recorder once and forks the
-    workers from its clean state, which starts them much faster than spawning each."""
+    """Worker processes that record attempts.
+
+    They are never forked from this process (MuJoCo's EGL contexts and torch's thread pools do not survive
+    a fork): a fork server imports the recorder once and forks them from its clean state, which starts them
+    much faster than spawning each.
+    """
     if "forkserver" in multiprocessing.get_all_start_methods():
         context = multiprocessing.get_context("forkserver")
         context.set_forkserver_preload([rollout.__name__])
@@ -292,6 +307,8 @@ def _run_collection(cfg: CollectConfig, work: Path, summary: CollectSummary) -> 
 
     pool = recorder = None
     try:
+        if cfg.num_workers > 0 and _plan(0, target, successes, failures):
+            pool = _make_pool(cfg, episodes_dir)  # workers start up while staged episodes are reassembled
         with _quiet_datasets():
             assemble_ready()
             summary.resumed_episodes = len(assembler.episodes)

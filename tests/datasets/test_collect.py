@@ -1,0 +1,260 @@
+"""`lerobot-ivmc-collect`: LeRobot loads the datasets, replay is exact, kills resume, push is LeRobot's."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from unittest import mock
+
+import numpy as np
+import pytest
+import torch
+from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+from lerobot_ivmc.datasets import (
+    ACTION_KEY,
+    ENV_STATE_KEY,
+    IMAGE_KEY,
+    SCENE_OBJECT_CELL_KEY,
+    SCENE_SEED_KEY,
+    SCENE_TARGET_CELL_KEY,
+    STATE_KEY,
+    demo_features,
+    staging,
+)
+from lerobot_ivmc.datasets.collect import CollectConfig, collect_demos, main
+from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, TASK_ENVS, TASKS, make_task_env
+from lerobot_ivmc.envs.scenes import Scene
+
+IMAGE_SIZE = 32
+
+
+def _config(root: Path, **overrides) -> CollectConfig:
+    kwargs = {"task": "push", "num_episodes": 2, "image_size": IMAGE_SIZE, "num_workers": 0}
+    return CollectConfig(root=root, **{**kwargs, "progress": False, **overrides})
+
+
+def _episode_arrays(dataset: LeRobotDataset, episode_index: int) -> dict[str, np.ndarray]:
+    """All frames of one episode as numpy arrays (images back in uint8 HWC)."""
+    episode = dataset.meta.episodes[episode_index]
+    frames = [dataset[i] for i in range(episode["dataset_from_index"], episode["dataset_to_index"])]
+    arrays = {key: np.stack([frame[key].numpy() for frame in frames]) for key in frames[0] if key != "task"}
+    arrays[IMAGE_KEY] = np.round(arrays[IMAGE_KEY].transpose(0, 2, 3, 1) * 255).astype(np.uint8)
+    arrays["task"] = [frame["task"] for frame in frames]
+    return arrays
+
+
+@pytest.fixture(scope="module", params=TASKS)
+def collected(request, tmp_path_factory) -> CollectConfig:
+    """Three demos per task, recorded in-process at 32x32."""
+    root = tmp_path_factory.mktemp("demos") / f"ivmc_{request.param}"
+    cfg = _config(root, task=request.param, num_episodes=3)
+    summary = collect_demos(cfg)
+    assert summary.num_episodes == 3 and summary.num_frames == 3 * DEMO_EPISODE_STEPS
+    return cfg
+
+
+def test_dataset_loads_with_lerobot_and_follows_the_spec(collected):
+    dataset = LeRobotDataset(collected.repo_id, root=collected.root)
+    assert dataset.fps == 25
+    assert dataset.num_episodes == 3 and dataset.num_frames == 3 * DEMO_EPISODE_STEPS
+    assert list(dataset.meta.episodes["length"]) == [DEMO_EPISODE_STEPS] * 3
+    for key, feature in demo_features(IMAGE_SIZE, use_video=False).items():
+        stored = dataset.meta.features[key]
+        assert (stored["dtype"], tuple(stored["shape"]), stored["names"]) == (
+            feature["dtype"],
+            feature["shape"],
+            feature["names"],
+        )
+    frame = dataset[0]
+    assert frame[IMAGE_KEY].shape == (3, IMAGE_SIZE, IMAGE_SIZE)
+    assert frame[STATE_KEY].shape == (9,) and frame[ENV_STATE_KEY].shape == (6,)
+    assert frame[ACTION_KEY].shape == (4,)
+    # LeRobot stores shape-(1,) features as scalar columns: they load as 0-d tensors.
+    assert frame[SCENE_SEED_KEY].ndim == 0 and frame[SCENE_SEED_KEY].dtype == torch.int64
+    assert frame["task"] == TASK_ENVS[collected.task].task_description
+    assert set(dataset.meta.stats) >= {IMAGE_KEY, STATE_KEY, ACTION_KEY}  # LeRobot's normalisation stats
+    assert not (collected.root / staging.WORK_DIR).exists() and not (collected.root / "images").exists()
+
+
+def test_episodes_come_from_their_split_and_replay_open_loop(collected):
+    dataset = LeRobotDataset(collected.repo_id, root=collected.root)
+    train = make_task_env(collected.task, image_size=IMAGE_SIZE, split="train", terminate_on_success=False)
+    held_out = {s for split in ("val", "test") for s in make_task_env(collected.task, split=split).scenes}
+    seeds = []
+    for episode_index in range(dataset.num_episodes):
+        recorded = _episode_arrays(dataset, episode_index)
+        assert (np.diff(recorded["frame_index"]) == 1).all() and recorded["frame_index"][0] == 0
+        seed = int(recorded[SCENE_SEED_KEY][0])
+        assert (recorded[SCENE_SEED_KEY] == seed).all()
+        seeds.append(seed)
+        scene = Scene(int(recorded[SCENE_OBJECT_CELL_KEY][0]), int(recorded[SCENE_TARGET_CELL_KEY][0]))
+        assert scene in train.scenes and scene not in held_out
+
+        # Frame t holds the observation action t was chosen from: replaying the actions reproduces them.
+        observation, _ = train.reset(seed=seed)
+        assert Scene(train.scene.object_cell, train.scene.target_cell) == scene
+        for t in range(DEMO_EPISODE_STEPS):
+            np.testing.assert_allclose(recorded[STATE_KEY][t], observation["agent_pos"], atol=1e-6)
+            np.testing.assert_allclose(
+                recorded[ENV_STATE_KEY][t], observation["environment_state"], atol=1e-6
+            )
+            np.testing.assert_array_equal(recorded[IMAGE_KEY][t], observation["pixels"]["front"])
+            observation, _, _, _, info = train.step(recorded[ACTION_KEY][t])
+        assert info["is_success"]
+        assert set(np.unique(recorded[ACTION_KEY][:, 3])) <= {-1.0, 0.0, 1.0}
+    assert len(set(seeds)) == len(seeds)
+    train.close()
+
+
+def test_same_arguments_reuse_a_finished_dataset(collected):
+    data_file = next((collected.root / "data").rglob("*.parquet"))
+    mtime = data_file.stat().st_mtime_ns
+    summary = collect_demos(collected)
+    assert summary.already_complete and summary.num_episodes == 3
+    assert data_file.stat().st_mtime_ns == mtime
+
+
+def test_another_spec_is_refused_and_nothing_is_touched(collected):
+    before = sorted(p.relative_to(collected.root) for p in collected.root.rglob("*"))
+    other_task = next(task for task in TASKS if task != collected.task)
+    cases = [
+        (_config(collected.root, task=other_task, num_episodes=3), "task"),
+        (_config(collected.root, task=collected.task, num_episodes=3, image_size=48), "feature"),
+        (_config(collected.root, task=collected.task, num_episodes=3, video=True), "feature"),
+        (_config(collected.root, task=collected.task, num_episodes=3, split="val"), "split"),
+        (_config(collected.root, task=collected.task, num_episodes=5), "already holds 3"),
+    ]
+    for cfg, message in cases:
+        with pytest.raises(ValueError, match=message):
+            collect_demos(cfg)
+    assert sorted(p.relative_to(collected.root) for p in collected.root.rglob("*")) == before
+
+
+@pytest.mark.parametrize("num_episodes", [0, -3])
+def test_non_positive_episode_count_is_refused(tmp_path, num_episodes, capsys):
+    with pytest.raises(ValueError, match="num_episodes"):
+        _config(tmp_path / "ds", num_episodes=num_episodes)
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--task", "push", "--num-episodes", str(num_episodes), "--root", str(tmp_path / "ds")])
+    assert exit_info.value.code == 2 and "num_episodes" in capsys.readouterr().err
+    assert not (tmp_path / "ds").exists()
+
+
+def test_foreign_folders_are_refused(tmp_path):
+    foreign = tmp_path / "foreign"
+    foreign.mkdir()
+    (foreign / "notes.txt").write_text("keep me")
+    with pytest.raises(ValueError, match="not empty"):
+        collect_demos(_config(foreign))
+    assert (foreign / "notes.txt").read_text() == "keep me"
+
+    unfinished = tmp_path / "unfinished"
+    (unfinished / staging.WORK_DIR).mkdir(parents=True)
+    staging.write_json(unfinished / staging.WORK_DIR / staging.SPEC_FILE, _config(unfinished).spec())
+    with pytest.raises(ValueError, match="unfinished collection of another spec.*task: stored 'push'"):
+        collect_demos(_config(unfinished, task="pick_place"))
+
+
+def test_push_to_hub_uses_lerobot_push(tmp_path):
+    root = tmp_path / "ivmc_push"
+    with pytest.raises(ValueError, match="hub repo id"):
+        _config(root, push_to_hub=True)
+    collect_demos(_config(root, num_episodes=1))
+    with (
+        mock.patch("lerobot.datasets.lerobot_dataset.HfApi") as hf_api,
+        mock.patch("lerobot.datasets.lerobot_dataset.create_lerobot_dataset_card") as make_card,
+    ):
+        argv = ["--task", "push", "--num-episodes", "1", "--root", str(root), "--image-size", str(IMAGE_SIZE)]
+        assert main([*argv, "--repo-id", "someone/ivmc_push", "--push-to-hub", "--no-progress"]) == 0
+    api = hf_api.return_value
+    api.create_repo.assert_called_once_with(
+        repo_id="someone/ivmc_push", private=False, repo_type="dataset", exist_ok=True
+    )
+    upload = api.upload_folder.call_args.kwargs
+    assert upload["repo_id"] == "someone/ivmc_push" and upload["repo_type"] == "dataset"
+    assert Path(upload["folder_path"]) == root and "images/" in upload["ignore_patterns"]
+    assert make_card.call_args.kwargs["dataset_info"]["total_episodes"] == 1
+    make_card.return_value.push_to_hub.assert_called_once()
+    api.create_tag.assert_called_once()
+
+
+@pytest.mark.filterwarnings("ignore:The video decoding and encoding capabilities of torchvision")
+def test_video_storage(tmp_path):
+    cfg = _config(tmp_path / "video", num_episodes=1, video=True)
+    collect_demos(cfg)
+    dataset = LeRobotDataset(cfg.repo_id, root=cfg.root, video_backend="pyav")
+    assert dataset.meta.features[IMAGE_KEY]["dtype"] == "video"
+    assert dataset[DEMO_EPISODE_STEPS - 1][IMAGE_KEY].shape == (3, IMAGE_SIZE, IMAGE_SIZE)
+
+
+def test_publish_cut_short_is_rebuilt(tmp_path, monkeypatch):
+    cfg = _config(tmp_path / "ds")
+
+    def publish_then_die(work_dir: Path, root: Path) -> None:
+        os.replace(work_dir / staging.BUILD_DIR / "data", root / "data")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(staging, "publish", publish_then_die)
+    with pytest.raises(KeyboardInterrupt):
+        collect_demos(cfg)
+    monkeypatch.undo()
+    summary = collect_demos(cfg)
+    assert summary.resumed_episodes == 2 and summary.attempts == 2
+    assert LeRobotDataset(cfg.repo_id, root=cfg.root).num_episodes == 2
+    assert not (cfg.root / staging.WORK_DIR).exists()
+
+
+def _staged(root: Path) -> int:
+    episodes = root / staging.WORK_DIR / staging.EPISODES_DIR
+    return len(list(episodes.glob("*.npz"))) if episodes.exists() else 0
+
+
+def _start(args: list[str]) -> subprocess.Popen:
+    # Its own session, so a signal reaches the collector and its workers together, as Ctrl-C or a
+    # job kill would.
+    cmd = [sys.executable, "-m", "lerobot_ivmc.datasets.collect", *args]
+    return subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+
+
+def _interrupt_when(process: subprocess.Popen, ready, sig: signal.Signals, timeout: float = 120) -> int:
+    deadline = time.monotonic() + timeout
+    while not ready() and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert process.poll() is None, f"finished before the interruption: {process.communicate()[0].decode()}"
+    os.killpg(process.pid, sig)
+    return process.wait(timeout=60)
+
+
+def test_killed_collection_resumes_to_exactly_n_episodes(tmp_path):
+    root, n = tmp_path / "ivmc_push", 6
+    args = ["--task", "push", "--num-episodes", str(n), "--root", str(root), "--image-size", str(IMAGE_SIZE)]
+    args += ["--num-workers", "2", "--seed", "7", "--no-progress"]
+
+    # SIGKILL mid-collection: workers die mid-episode, LeRobot's parquet writers are never closed.
+    assert _interrupt_when(_start(args), lambda: _staged(root) >= 2, signal.SIGKILL) == -signal.SIGKILL
+    assert not (root / "meta").exists() and (root / staging.WORK_DIR / staging.BUILD_DIR).exists()
+    # Ctrl-C of the resumed run once it has staged more: a clean stop, resumable too.
+    staged = _staged(root)
+    assert _interrupt_when(_start(args), lambda: _staged(root) >= staged + 1, signal.SIGINT) == 130
+    finished = subprocess.run(
+        [sys.executable, "-m", "lerobot_ivmc.datasets.collect", *args], capture_output=True, text=True
+    )
+    assert finished.returncode == 0, finished.stdout + finished.stderr
+
+    dataset = LeRobotDataset("local/ivmc_push", root=root)
+    assert dataset.num_episodes == n and dataset.num_frames == n * DEMO_EPISODE_STEPS
+    assert sorted(dataset.hf_dataset.unique("episode_index")) == list(range(n))
+    assert list(dataset.meta.episodes["length"]) == [DEMO_EPISODE_STEPS] * n
+    assert not (root / staging.WORK_DIR).exists()
+
+    # Exactly the episodes an uninterrupted collection with the same arguments gives.
+    reference = _config(tmp_path / "reference", num_episodes=n, seed=7)
+    assert collect_demos(reference).episode_seeds == [
+        ep["scene_seed"] for ep in staging.read_json(root / staging.COLLECTION_INFO_PATH)["episodes"]
+    ]
+    expected = LeRobotDataset(reference.repo_id, root=reference.root)
+    for key in (ACTION_KEY, STATE_KEY, SCENE_SEED_KEY):
+        np.testing.assert_array_equal(np.stack(dataset.hf_dataset[key]), np.stack(expected.hf_dataset[key]))
