@@ -87,6 +87,23 @@ def test_padded_window_equals_a_rollout_from_reset() -> None:
     torch.testing.assert_close(e_train, e_roll)
 
 
+def test_window_rollout_memory_sees_exactly_the_training_window() -> None:
+    """With rollout_memory="window", step t's embedding is training's embedding of frames t-K+1..t."""
+    policy = make_policy(VMCPolicy, rollout_memory="window")
+    frames = make_batch(1, k=6, seed=3)
+    s = policy.net.encode(frames[IMAGE_KEY][0], frames[OBS_STATE][0])[None]
+    policy.reset()
+    for t in range(6):
+        e_roll = policy.step_embedding(
+            {IMAGE_KEY: frames[IMAGE_KEY][:, t], OBS_STATE: frames[OBS_STATE][:, t]}
+        )
+        e_train = policy.net.unroll(s[:, max(0, t - 3) : t + 1])
+        torch.testing.assert_close(e_roll, e_train)
+    assert len(policy.get_memory()) == 4
+    with pytest.raises(ValueError, match="rollout_memory"):
+        make_config(VMCConfig, rollout_memory="episode")
+
+
 @pytest.mark.parametrize("cls", [VMCPolicy, BVMCPolicy])
 def test_select_action_is_lerobot_compatible(cls: type[VMCPolicy]) -> None:
     policy = make_policy(cls)

@@ -14,6 +14,7 @@ DELTA_EE_DIM = 3
 ACTION_DIM = DELTA_EE_DIM + 1
 # Layout of `observation.environment_state`, the auxiliary targets: end-effector (3) then object (3) position.
 AUX_DIM = 6
+ROLLOUT_MEMORY_MODES = ("trajectory", "window")
 # Gripper commands close / no-op / open; class index = command + 1.
 GRIPPER_COMMANDS = (-1.0, 0.0, 1.0)
 
@@ -33,6 +34,9 @@ class VMCConfig(PreTrainedConfig):
         lstm_dim: LSTM width, also the size of the embedding e_t.
         fc_dim: width of the fully connected layers after the LSTM.
         num_fc_layers: #fc, fully connected layers after the LSTM (the paper: 1 or 2).
+        rollout_memory: how the LSTM memory runs at rollout. "trajectory" (the paper): one LSTM step per
+            control step, the memory kept along the whole episode. "window": at every step the LSTM re-runs
+            from zero memory over the last K frames, exactly as in training on K-frame windows.
         optimizer_lr: Adam learning rate.
         optimizer_weight_decay: Adam weight decay.
         optimizer_grad_clip_norm: gradient clipping norm applied by lerobot-train.
@@ -57,6 +61,9 @@ class VMCConfig(PreTrainedConfig):
     fc_dim: int = 128
     num_fc_layers: int = 1
 
+    # Inference.
+    rollout_memory: str = "trajectory"
+
     # Training presets (GEECO: Adam, lr 1e-4, batch 32; a larger lr converges faster on short CPU runs).
     optimizer_lr: float = 3e-4
     optimizer_weight_decay: float = 0.0
@@ -73,6 +80,10 @@ class VMCConfig(PreTrainedConfig):
         for name in ("lstm_dim", "fc_dim"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)}.")
+        if self.rollout_memory not in ROLLOUT_MEMORY_MODES:
+            raise ValueError(
+                f"rollout_memory must be one of {ROLLOUT_MEMORY_MODES}, got {self.rollout_memory!r}."
+            )
         action_mode = self.normalization_mapping.get(FeatureType.ACTION.value, NormalizationMode.IDENTITY)
         if NormalizationMode(action_mode) is not NormalizationMode.IDENTITY:
             raise ValueError(

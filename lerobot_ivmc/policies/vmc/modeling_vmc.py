@@ -17,8 +17,8 @@ from torch import Tensor, nn
 from lerobot_ivmc.policies.vmc.configuration_vmc import AUX_DIM, DELTA_EE_DIM, GRIPPER_COMMANDS, VMCConfig
 
 NUM_GRIPPER_CLASSES = len(GRIPPER_COMMANDS)
-# LSTM memory (h, c), each (B, lstm_dim).
-Memory = tuple[Tensor, Tensor]
+# Rollout memory: the LSTM state (h, c), or the last K state representations (`rollout_memory`).
+Memory = tuple[Tensor, ...]
 
 
 class MLPHead(nn.Module):
@@ -154,12 +154,16 @@ class VMCPolicy(PreTrainedPolicy):
         self._memory = None
 
     def get_memory(self) -> Memory | None:
-        """A copy of the LSTM memory (h, c), each (B, lstm_dim), or None before the first step."""
-        return None if self._memory is None else (self._memory[0].clone(), self._memory[1].clone())
+        """A copy of the rollout memory, or None before the first step.
+
+        With `rollout_memory="trajectory"` it is the LSTM state (h, c), each (B, lstm_dim); with "window" the
+        state representations of the last (up to) K frames, each (B, D_s).
+        """
+        return None if self._memory is None else tuple(t.clone() for t in self._memory)
 
     def set_memory(self, memory: Memory | None) -> None:
-        """Restore an LSTM memory from `get_memory` (e.g. to back-track); None clears it."""
-        self._memory = None if memory is None else (memory[0].clone(), memory[1].clone())
+        """Restore a memory from `get_memory` (e.g. to back-track); None clears it."""
+        self._memory = None if memory is None else tuple(t.clone() for t in memory)
 
     def forward(self, batch: dict[str, Tensor]) -> tuple[Tensor, dict[str, float]]:
         """Training loss on the last step of each K-frame window.
@@ -217,7 +221,11 @@ class VMCPolicy(PreTrainedPolicy):
         memory = self._memory
         if memory is not None and memory[0].shape[0] != images.shape[0]:
             raise ValueError(f"Memory holds {memory[0].shape[0]} rollouts but the batch {images.shape[0]}.")
-        self._memory = self.net.step(self.net.encode(images, state), memory)
+        s = self.net.encode(images, state)
+        if self.config.rollout_memory == "window":
+            self._memory = ((*memory, s) if memory is not None else (s,))[-self.config.n_obs_steps :]
+            return self.net.unroll(torch.stack(self._memory, dim=1))
+        self._memory = self.net.step(s, memory)
         return self._memory[0]
 
     @torch.no_grad()
