@@ -50,10 +50,11 @@ POSITION_SCALE = 0.05  # metres per unit of action, as in gymnasium-robotics Fet
 N_SUBSTEPS = 20  # 20 x 2 ms = 25 Hz control
 _FINGER_OPEN, _FINGER_CLOSED = 0.05, 0.0  # finger position targets (actuator ctrlrange is [0, 0.2])
 _GRIPPER_QUAT = np.array([1.0, 0.0, 1.0, 0.0])  # fingers pointing down, as in Fetch
-# Where the mocap (welded to the gripper link, 2 cm above the grip point) may go: over the table and
-# never lower than a fingertip resting on it.
-_WORKSPACE_LOW = np.array([1.0, 0.35, scene_model.TABLE_TOP_Z + 0.04])
-_WORKSPACE_HIGH = np.array([1.6, 1.15, scene_model.TABLE_TOP_Z + 0.5])
+# Where the mocap (welded to the gripper link, 2 cm above the grip point) may go: never lower than a
+# fingertip resting on the table, and inside the box the camera sees, so that a policy that overshoots
+# cannot lose sight of its own gripper. The experts' waypoints all lie inside it.
+_WORKSPACE_LOW = np.array([1.08, 0.46, scene_model.TABLE_TOP_Z + 0.04])
+_WORKSPACE_HIGH = np.array([1.50, 1.04, scene_model.TABLE_TOP_Z + 0.20])
 # The arm's initial configuration, taken from gymnasium-robotics' FetchPickAndPlace setup.
 _INITIAL_QPOS = {"robot0:slide0": 0.405, "robot0:slide1": 0.48, "robot0:slide2": 0.0}
 # Fixed shuffle of a split's scenes that seeds index into (see `reset`).
@@ -304,7 +305,15 @@ class IvmcFetchEnv(gym.Env, EzPickle):
 
     def _render(self, size: int) -> np.ndarray:
         if size not in self._renderers:
-            self._renderers[size] = mujoco.Renderer(self.model, size, size)
+            try:
+                self._renderers[size] = mujoco.Renderer(self.model, size, size)
+            except mujoco.FatalError as error:
+                raise RuntimeError(
+                    "MuJoCo could not create an offscreen renderer "
+                    f"(MUJOCO_GL={os.environ.get('MUJOCO_GL')!r}). "
+                    "Set MUJOCO_GL=egl (or osmesa) in the environment before anything imports mujoco; "
+                    "lerobot_ivmc sets it only if mujoco was not imported first."
+                ) from error
         renderer = self._renderers[size]
         renderer.update_scene(self.data, camera=scene_model.CAMERA_NAME)
         return renderer.render().copy()

@@ -103,6 +103,17 @@ def test_delta_action_moves_the_end_effector():
     assert abs(moved[1]) < 0.02 and abs(moved[2]) < 0.02
 
 
+@pytest.mark.parametrize("direction", [(-1, -1, 1), (1, 1, 1), (1, -1, -1), (-1, 1, -1)])
+def test_gripper_stays_inside_the_workspace_the_camera_sees(direction):
+    env = make_task_env("pick_place", obs_type="state")
+    env.reset(seed=0)
+    for _ in range(25):
+        env.step(np.array([*direction, 0], dtype=np.float32))
+    low, high = env.grip_workspace
+    assert np.all(env.grip_position > low - 0.01) and np.all(env.grip_position < high + 0.01)
+    assert np.any(np.abs(env.grip_position - np.where(np.array(direction) > 0, high, low)) < 0.01)
+
+
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
