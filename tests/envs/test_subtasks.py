@@ -61,6 +61,20 @@ def test_pick_place_milestones_flip_at_the_right_moments(seed):
     assert infos[-1]["is_success"]
 
 
+def test_pushing_the_cube_onto_the_target_is_not_a_place():
+    """pick_place's `place` needs the pick first: slide the cube onto the target with the push expert."""
+    from lerobot_ivmc.envs.tasks.push import PushEnv
+    from lerobot_ivmc.experts.push import PushExpert
+
+    scene = next(s for s in PushEnv.all_scenes())  # a scene that is valid for both tasks
+    env = make_task_env("pick_place", obs_type="state", split="all", terminate_on_success=False)
+    index = env.scenes.index(scene)
+    expert = PushExpert(env)
+    final = run_expert_episode(env, expert, options={"scene_index": index})
+    assert rests_on_target(env), "the push expert should have slid the cube onto the target"
+    assert not final["subtasks"]["pick"] and not final["subtasks"]["place"]
+
+
 def test_push_milestones_flip_at_the_right_moments():
     infos, states = record_expert("push", seed=3)
     reach, push = first_step(infos, "reach"), first_step(infos, "push")

@@ -12,7 +12,7 @@ PICK_REACH_DISTANCE = 0.03
 
 class PickPlaceEnv(IvmcFetchEnv):
     """Milestones: ``reach`` (grip point at the cube), ``pick`` (cube grasped and lifted),
-    ``place`` (cube released, resting on the target)."""
+    ``place`` (after the pick, the cube released and resting on the target)."""
 
     task = "pick_place"
     task_description = "Pick up the red cube and place it on the blue target."
@@ -22,8 +22,10 @@ class PickPlaceEnv(IvmcFetchEnv):
     target_grid = TABLE_GRID
 
     def _subtask_status(self) -> dict[str, bool]:
+        picked = self.progress["pick"] or is_picked(self)
         return {
             "reach": distance(self.grip_position, self.object_position) < PICK_REACH_DISTANCE,
-            "pick": is_picked(self),
-            "place": rests_on_target(self) and not self.is_grasped(),
+            "pick": picked,
+            # A cube pushed onto the target is not placed: it must have been picked up first.
+            "place": picked and rests_on_target(self) and not self.is_grasped(),
         }
