@@ -1,0 +1,71 @@
+"""Open-loop diagnostics of a trained vmc / bvmc checkpoint on recorded demos.
+
+Replays demo episodes frame by frame through the policy (LSTM memory as at rollout, dropout off) and prints
+how far its outputs are from the expert's: the delta end-effector command (mean absolute error, in action
+units of 5 cm), the gripper command (accuracy), and the auxiliary end-effector and object positions (mean
+absolute error per axis, in cm, after undoing the normalisation).
+
+    python benchmarks/policy_diagnostics.py \\
+        --policy-path outputs/train/bvmc/checkpoints/005000/pretrained_model \\
+        --dataset-root data/ivmc_pick_place --repo-id local/ivmc_pick_place --episodes 20
+"""
+
+import argparse
+
+import numpy as np
+import torch
+from lerobot.configs.policies import PreTrainedConfig
+from lerobot.datasets.lerobot_dataset import LeRobotDataset
+from lerobot.policies.factory import get_policy_class, make_pre_post_processors
+from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
+
+import lerobot_ivmc  # noqa: F401  (registers the policy types)
+from lerobot_ivmc.datasets.features import IMAGE_KEY
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--policy-path", required=True)
+    parser.add_argument("--dataset-root", required=True)
+    parser.add_argument("--repo-id", required=True)
+    parser.add_argument("--episodes", type=int, default=20, help="episodes, spread over the dataset")
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+
+    config = PreTrainedConfig.from_pretrained(args.policy_path)
+    policy = get_policy_class(config.type).from_pretrained(args.policy_path)
+    policy.mc_sampling = False
+    policy.eval()
+    preprocessor, _ = make_pre_post_processors(policy.config, pretrained_path=args.policy_path)
+    dataset = LeRobotDataset(args.repo_id, root=args.dataset_root)
+    stats = dataset.meta.stats[OBS_ENV_STATE]
+    mean, std = np.asarray(stats["mean"]), np.asarray(stats["std"])
+
+    delta_errors, gripper_hits, aux_errors = [], [], []
+    starts = dataset.meta.episodes["dataset_from_index"]
+    ends = dataset.meta.episodes["dataset_to_index"]
+    for episode in np.linspace(0, dataset.num_episodes - 1, args.episodes).astype(int):
+        policy.reset()
+        for index in range(starts[episode], ends[episode]):
+            item = dataset[index]
+            batch = preprocessor({IMAGE_KEY: item[IMAGE_KEY][None], OBS_STATE: item[OBS_STATE][None]})
+            with torch.no_grad():
+                embedding = policy.step_embedding(batch)
+                delta_ee, logits, ee, obj = policy.net.decode(embedding, stochastic=False)
+            expert = item[ACTION].numpy()
+            delta_errors.append(np.abs(delta_ee[0].numpy() - expert[:3]))
+            gripper_hits.append(int(logits[0].argmax()) - 1 == int(round(float(expert[3]))))
+            predicted_aux = torch.cat([ee[0], obj[0]]).numpy() * std + mean
+            aux_errors.append(np.abs(predicted_aux - item[OBS_ENV_STATE].numpy()))
+    delta_errors, aux_errors = np.array(delta_errors), np.array(aux_errors) * 100
+    print(f"{args.policy_path}: {args.episodes} episodes, {len(gripper_hits)} frames of {args.repo_id}")
+    print(f"  delta EE mean abs error (action units, x y z): {np.round(delta_errors.mean(0), 3)}")
+    print(f"  gripper command accuracy: {np.mean(gripper_hits):.1%}")
+    print(f"  end-effector position mean abs error (cm, x y z): {np.round(aux_errors[:, :3].mean(0), 2)}")
+    print(f"  object position mean abs error (cm, x y z): {np.round(aux_errors[:, 3:].mean(0), 2)}")
+
+
+if __name__ == "__main__":
+    main()
