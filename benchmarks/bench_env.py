@@ -10,7 +10,7 @@ import time
 import numpy as np
 
 from lerobot_ivmc.envs import TASKS, make_task_env
-from lerobot_ivmc.experts import make_expert, run_expert_episode
+from lerobot_ivmc.scripts.run_experts import ExpertRunConfig, run_task
 
 
 def steps_per_second(obs_type: str, image_size: int, n_steps: int = 300) -> float:
@@ -24,17 +24,6 @@ def steps_per_second(obs_type: str, image_size: int, n_steps: int = 300) -> floa
     elapsed = time.perf_counter() - start
     env.close()
     return n_steps / elapsed
-
-
-def expert_success(task: str, episodes: int) -> dict[str, float]:
-    env = make_task_env(task, obs_type="state", terminate_on_success=False)
-    expert = make_expert(env)
-    reached = {name: 0 for name in env.subtasks}
-    for seed in range(episodes):
-        info = run_expert_episode(env, expert, seed=seed)
-        for name, flag in info["subtasks"].items():
-            reached[name] += bool(flag)
-    return {name: count / episodes for name, count in reached.items()}
 
 
 def main() -> None:
@@ -52,7 +41,7 @@ def main() -> None:
     print(f"expert success over {args.episodes} train scenes per task (seeds 0..{args.episodes - 1}):")
     for task in TASKS:
         start = time.perf_counter()
-        rates = expert_success(task, args.episodes)
+        rates = run_task(ExpertRunConfig(tasks=[task], n_episodes=args.episodes, n_videos=0), task)
         line = "  ".join(f"{name} {rate:6.1%}" for name, rate in rates.items())
         print(f"  {task:<11} {line}   ({time.perf_counter() - start:.0f} s)")
 
