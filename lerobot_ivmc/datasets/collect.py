@@ -76,6 +76,8 @@ class CollectConfig:
         video: store the camera as mp4 video instead of PNG frames (slower to decode when training).
         num_workers: parallel recording processes; 0 records in this process.
         seed: base seed from which every attempt's scene seed is derived.
+        action_noise: std (action units, 1 = 5 cm) of Gaussian noise on the executed delta-EE command while
+            the recorded action stays the expert's (DART); 0 records the expert's own trajectories.
         push_to_hub: publish the finished dataset with `LeRobotDataset.push_to_hub`.
         private: make the hub repository private.
         progress: show a progress bar.
@@ -90,6 +92,7 @@ class CollectConfig:
     video: bool = False
     num_workers: int = 2
     seed: int = 0
+    action_noise: float = 0.0
     push_to_hub: bool = False
     private: bool = False
     progress: bool = True
@@ -106,6 +109,8 @@ class CollectConfig:
             raise ValueError(f"num_workers must be >= 0, got {self.num_workers}.")
         if self.seed < 0:
             raise ValueError(f"seed must be >= 0, got {self.seed}.")
+        if not 0.0 <= self.action_noise <= 1.0:
+            raise ValueError(f"action_noise must be in [0, 1] action units, got {self.action_noise}.")
         self.root = Path(self.root) if self.root is not None else Path("data") / f"ivmc_{self.task}"
         self.repo_id = self.repo_id or f"local/ivmc_{self.task}"
         if self.repo_id.count("/") != 1:
@@ -115,8 +120,11 @@ class CollectConfig:
 
     def spec(self) -> dict:
         """What the dataset in `root` must match to be resumed or reused (the episode count aside)."""
+        # Noise-free collections keep the spec they had before noise injection existed.
+        noise = {"action_noise": self.action_noise} if self.action_noise > 0 else {}
         return staging.normalise(
             {
+                **noise,
                 "task": self.task,
                 "gym_id": gym_id(self.task),
                 "split": self.split,
@@ -279,7 +287,7 @@ def _make_pool(cfg: CollectConfig, episodes_dir: Path) -> multiprocessing.pool.P
     return context.Pool(
         cfg.num_workers,
         initializer=rollout.init_worker,
-        initargs=(cfg.task, cfg.image_size, cfg.split, cfg.seed, str(episodes_dir)),
+        initargs=(cfg.task, cfg.image_size, cfg.split, cfg.seed, str(episodes_dir), cfg.action_noise),
     )
 
 
@@ -321,7 +329,7 @@ def _run_collection(cfg: CollectConfig, work: Path, summary: CollectSummary) -> 
                     )
                 if cfg.num_workers == 0:
                     recorder = recorder or rollout.Recorder(
-                        cfg.task, cfg.image_size, cfg.split, cfg.seed, episodes_dir
+                        cfg.task, cfg.image_size, cfg.split, cfg.seed, episodes_dir, cfg.action_noise
                     )
                     results = map(recorder.record, attempts)
                 else:
@@ -401,6 +409,12 @@ def _parse_args(argv: list[str] | None) -> CollectConfig:
     parser.add_argument("--video", action="store_true", help="store the camera as mp4 instead of PNG")
     parser.add_argument("--num-workers", type=int, default=2, help="recording processes (0: in-process)")
     parser.add_argument("--seed", type=int, default=0, help="base seed of the attempts' scene seeds")
+    parser.add_argument(
+        "--action-noise",
+        type=float,
+        default=0.0,
+        help="std of noise on the executed delta-EE command, action units (DART); the label stays clean",
+    )
     parser.add_argument("--push-to-hub", action="store_true", help="publish with LeRobotDataset.push_to_hub")
     parser.add_argument("--private", action="store_true", help="make the hub repository private")
     parser.add_argument("--no-progress", dest="progress", action="store_false", help="hide the progress bar")

@@ -14,7 +14,8 @@ import numpy as np
 
 from lerobot_ivmc.datasets import staging
 from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, make_task_env
-from lerobot_ivmc.envs.fetch_env import IvmcFetchEnv
+from lerobot_ivmc.envs.fetch_env import DELTA_EE_DIM, IvmcFetchEnv
+
 from lerobot_ivmc.envs.scene_model import CAMERA_NAME
 from lerobot_ivmc.experts import WaypointExpert, make_expert, run_expert_episode
 
@@ -28,6 +29,32 @@ def attempt_seed(base_seed: int, attempt: int) -> int:
 
 
 @dataclass
+class ActionNoise:
+    """Gaussian noise on the executed delta-EE command (DART, Laskey et al. 2017).
+
+    The demo records the expert's clean action while the robot executes a perturbed one, so the data shows
+    how the expert recovers from small deviations: the states a learned policy drifts into.
+
+    Args:
+        std: standard deviation in action units (1 unit = 5 cm); 0 executes the expert's action unchanged.
+        seed: seeds the noise of one episode (the attempt's scene seed), so reruns repeat it.
+    """
+
+    std: float
+    seed: int
+
+    def __post_init__(self) -> None:
+        self._rng = np.random.default_rng([self.seed, 1])
+
+    def __call__(self, action: np.ndarray) -> np.ndarray:
+        noisy = action.copy()
+        noisy[:DELTA_EE_DIM] = np.clip(
+            noisy[:DELTA_EE_DIM] + self._rng.normal(0.0, self.std, DELTA_EE_DIM), -1.0, 1.0
+        )
+        return noisy
+
+
+@dataclass
 class Recorder:
     """An env and its expert that record attempts into a staging folder.
 
@@ -37,6 +64,7 @@ class Recorder:
         split: scene split the seeds draw from ("train", "val", "test").
         base_seed: the collection's `--seed`.
         episodes_dir: where finished attempts are staged.
+        action_noise: std of the noise on the executed delta-EE command (`ActionNoise`); 0 for none.
     """
 
     task: str
@@ -44,6 +72,7 @@ class Recorder:
     split: str
     base_seed: int
     episodes_dir: Path
+    action_noise: float = 0.0
 
     def __post_init__(self) -> None:
         # Demos always last DEMO_EPISODE_STEPS steps: success does not end them.
@@ -63,7 +92,8 @@ class Recorder:
             env_states.append(observation["environment_state"])
             actions.append(action)
 
-        info = run_expert_episode(self.env, self.expert, seed=seed, on_step=on_step)
+        perturb = ActionNoise(self.action_noise, seed) if self.action_noise > 0 else None
+        info = run_expert_episode(self.env, self.expert, seed=seed, on_step=on_step, perturb=perturb)
         success = bool(info["is_success"]) and len(actions) == DEMO_EPISODE_STEPS
         if not success:
             staging.write_failure(self.episodes_dir, attempt)
@@ -88,11 +118,13 @@ class Recorder:
 _worker_recorder: Recorder | None = None
 
 
-def init_worker(task: str, image_size: int, split: str, base_seed: int, episodes_dir: str) -> None:
+def init_worker(
+    task: str, image_size: int, split: str, base_seed: int, episodes_dir: str, action_noise: float
+) -> None:
     """Pool initializer: build the worker's env once. Ctrl-C is left to the parent, which stops the pool."""
     global _worker_recorder
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    _worker_recorder = Recorder(task, image_size, split, base_seed, Path(episodes_dir))
+    _worker_recorder = Recorder(task, image_size, split, base_seed, Path(episodes_dir), action_noise)
 
 
 def record_in_worker(attempt: int) -> tuple[int, bool]:

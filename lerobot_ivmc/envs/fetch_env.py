@@ -47,6 +47,7 @@ OBS_TYPES = ("pixels_agent_pos", "state")
 
 GRIPPER_CLOSE, GRIPPER_NOOP, GRIPPER_OPEN = -1, 0, 1
 POSITION_SCALE = 0.05  # metres per unit of action, as in gymnasium-robotics Fetch
+DELTA_EE_DIM = 3  # action = [dx, dy, dz, gripper]
 N_SUBSTEPS = 20  # 20 x 2 ms = 25 Hz control
 _FINGER_OPEN, _FINGER_CLOSED = 0.05, 0.0  # finger position targets (actuator ctrlrange is [0, 0.2])
 _GRIPPER_QUAT = np.array([1.0, 0.0, 1.0, 0.0])  # fingers pointing down, as in Fetch

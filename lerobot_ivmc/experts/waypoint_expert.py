@@ -103,16 +103,20 @@ def run_expert_episode(
     max_steps: int = DEMO_EPISODE_STEPS,
     options: dict | None = None,
     on_step: Callable[[dict, np.ndarray, dict], None] | None = None,
+    perturb: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> dict:
     """Roll the expert out for `max_steps` steps (or until the env terminates); return the final info.
 
-    `on_step(observation, action, info)` is called with the observation the action was chosen from.
+    `on_step(observation, action, info)` is called with the observation the action was chosen from and the
+    expert's action. `perturb(action)`, if given, returns the action actually executed (noise injection);
+    the expert, being closed-loop, corrects the deviation on the next steps.
     """
     observation, info = env.reset(seed=seed, options=options)
     expert.reset()
     for _ in range(max_steps):
         action = expert.act()
-        next_observation, _, terminated, truncated, info = env.step(action)
+        executed = action if perturb is None else perturb(action)
+        next_observation, _, terminated, truncated, info = env.step(executed)
         if on_step is not None:
             on_step(observation, action, info)
         observation = next_observation

@@ -22,6 +22,7 @@ from lerobot_ivmc.datasets import (
     SCENE_TARGET_CELL_KEY,
     STATE_KEY,
     demo_features,
+    rollout,
     staging,
 )
 from lerobot_ivmc.datasets.collect import CollectConfig, collect_demos, main
@@ -109,6 +110,41 @@ def test_episodes_come_from_their_split_and_replay_open_loop(collected):
     train.close()
 
 
+def test_noisy_demos_label_the_expert_action_and_record_the_noisy_states(tmp_path):
+    """DART: the robot executes label + noise; replaying exactly that reproduces the recorded states."""
+    recorder = rollout.Recorder("pick_place", IMAGE_SIZE, "train", 0, tmp_path / "noisy", action_noise=0.15)
+    clean = rollout.Recorder("pick_place", IMAGE_SIZE, "train", 0, tmp_path / "clean")
+    assert recorder.record(0) == (0, True) and clean.record(0) == (0, True)
+    noisy = staging.read_episode(staging.attempt_path(tmp_path / "noisy", 0, "npz"))
+    plain = staging.read_episode(staging.attempt_path(tmp_path / "clean", 0, "npz"))
+    assert noisy.scene_seed == plain.scene_seed
+    assert np.abs(noisy.state - plain.state).max() > 1e-3  # the noise moved the robot
+
+    noise = rollout.ActionNoise(0.15, noisy.scene_seed)
+    env = make_task_env("pick_place", image_size=IMAGE_SIZE, terminate_on_success=False)
+    observation, _ = env.reset(seed=noisy.scene_seed)
+    for t in range(DEMO_EPISODE_STEPS):
+        np.testing.assert_allclose(noisy.state[t], observation["agent_pos"], atol=1e-6)
+        assert np.abs(noisy.action[t, :3]).max() <= 0.6 + 1e-6  # the expert's speed limit, no noise on top
+        observation, _, _, _, info = env.step(noise(noisy.action[t]))
+    assert info["is_success"]
+    env.close()
+    recorder.close()
+    clean.close()
+
+    again = rollout.Recorder("pick_place", IMAGE_SIZE, "train", 0, tmp_path / "again", action_noise=0.15)
+    again.record(0)
+    repeat = staging.read_episode(staging.attempt_path(tmp_path / "again", 0, "npz"))
+    np.testing.assert_array_equal(repeat.state, noisy.state)
+    again.close()
+
+
+@pytest.mark.parametrize("action_noise", [-0.1, 1.5])
+def test_action_noise_outside_its_range_is_refused(tmp_path, action_noise):
+    with pytest.raises(ValueError, match="action_noise"):
+        _config(tmp_path / "data", action_noise=action_noise)
+
+
 def test_same_arguments_reuse_a_finished_dataset(collected):
     data_file = next((collected.root / "data").rglob("*.parquet"))
     mtime = data_file.stat().st_mtime_ns
@@ -125,6 +161,7 @@ def test_another_spec_is_refused_and_nothing_is_touched(collected):
         (_config(collected.root, task=collected.task, num_episodes=3, image_size=48), "feature"),
         (_config(collected.root, task=collected.task, num_episodes=3, video=True), "feature"),
         (_config(collected.root, task=collected.task, num_episodes=3, split="val"), "split"),
+        (_config(collected.root, task=collected.task, num_episodes=3, action_noise=0.1), "action_noise"),
         (_config(collected.root, task=collected.task, num_episodes=5), "already holds 3"),
     ]
     for cfg, message in cases:
