@@ -14,6 +14,7 @@ from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
 from policy_helpers import IMAGE_KEY, make_batch, make_config, observation_batch
 
 from lerobot_ivmc.policies import BVMCConfig, BVMCPolicy, VMCConfig, VMCPolicy
+from lerobot_ivmc.policies.vmc.modeling_vmc import random_shift
 
 
 def make_policy(cls: type[VMCPolicy] = BVMCPolicy, **kwargs) -> VMCPolicy:
@@ -142,7 +143,7 @@ def test_mc_samples_vary_while_vmc_does_not() -> None:
 
 
 def test_training_draws_masks_even_in_eval_mode() -> None:
-    policy = make_policy(BVMCPolicy, dropout_init=0.3)
+    policy = make_policy(BVMCPolicy, dropout_init=0.3, image_shift_pad=0)  # only the masks are random
     policy.eval()
     batch = make_batch(4)
     assert policy.forward(batch)[0].item() != policy.forward(batch)[0].item()
@@ -236,3 +237,37 @@ def test_bad_config_values_are_refused() -> None:
         policy.sample(observation_batch(1), num_samples=1)
     with pytest.raises(ValueError, match="one frame per step"):
         policy.select_action(make_batch(1, k=4))
+
+
+def test_random_shift_moves_each_window_rigidly_within_the_pad() -> None:
+    torch.manual_seed(0)
+    images = torch.rand(16, 4, 3, 12, 10)
+    shifted = random_shift(images, pad=2)
+    assert shifted.shape == images.shape
+    assert torch.equal(random_shift(images, pad=0), images)
+    padded = torch.nn.functional.pad(images.flatten(1, 2), (2, 2, 2, 2), mode="replicate")
+    padded = padded.unflatten(1, (4, 3))
+    moved = 0
+    for b in range(16):
+        # Exactly one offset (dy, dx) in [-2, 2]^2 explains all K frames of the window.
+        matches = [
+            (dy, dx)
+            for dy in range(5)
+            for dx in range(5)
+            if torch.equal(shifted[b], padded[b, :, :, dy : dy + 12, dx : dx + 10])
+        ]
+        assert matches, f"sample {b} is not a shifted crop of its padded frames"
+        moved += matches[0] != (2, 2)
+    assert moved > 8, "offsets must vary across samples"
+
+
+def test_training_loss_augments_the_frames_unless_disabled() -> None:
+    batch = make_batch(4)
+    for pad, differs in [(4, True), (0, False)]:
+        policy = make_policy(VMCPolicy, image_shift_pad=pad)
+        torch.manual_seed(0)
+        first = policy.forward(batch)[0].item()
+        second = policy.forward(batch)[0].item()
+        assert (first != second) is differs
+    with pytest.raises(ValueError, match="image_shift_pad"):
+        make_config(VMCConfig, image_shift_pad=-1)

@@ -37,6 +37,8 @@ class VMCConfig(PreTrainedConfig):
         rollout_memory: how the LSTM memory runs at rollout. "trajectory" (the paper): one LSTM step per
             control step, the memory kept along the whole episode. "window": at every step the LSTM re-runs
             from zero memory over the last K frames, exactly as in training on K-frame windows.
+        image_shift_pad: training augmentation: each window's frames are shifted together by a random
+            offset of up to this many pixels per axis (DrQ / RAD random shift); 0 disables it.
         optimizer_lr: Adam learning rate.
         optimizer_weight_decay: Adam weight decay.
         optimizer_grad_clip_norm: gradient clipping norm applied by lerobot-train.
@@ -64,6 +66,9 @@ class VMCConfig(PreTrainedConfig):
     # Inference.
     rollout_memory: str = "trajectory"
 
+    # Training augmentation (4 px of 64, as the usual 84 -> 76 random crops of pixel-based imitation).
+    image_shift_pad: int = 4
+
     # Training presets (GEECO: Adam, lr 1e-4, batch 32; a larger lr converges faster on short CPU runs).
     optimizer_lr: float = 3e-4
     optimizer_weight_decay: float = 0.0
@@ -80,6 +85,8 @@ class VMCConfig(PreTrainedConfig):
         for name in ("lstm_dim", "fc_dim"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)}.")
+        if self.image_shift_pad < 0:
+            raise ValueError(f"image_shift_pad must be >= 0 pixels, got {self.image_shift_pad}.")
         if self.rollout_memory not in ROLLOUT_MEMORY_MODES:
             raise ValueError(
                 f"rollout_memory must be one of {ROLLOUT_MEMORY_MODES}, got {self.rollout_memory!r}."

@@ -112,6 +112,23 @@ class VisuomotorNet(nn.Module):
         return out.split([DELTA_EE_DIM, NUM_GRIPPER_CLASSES, AUX_DIM // 2, AUX_DIM // 2], dim=-1)
 
 
+def random_shift(images: Tensor, pad: int) -> Tensor:
+    """Shift each sample's frames by one random offset in [-pad, pad] pixels per axis, edges replicated.
+
+    The augmentation of DrQ / RAD: (B, K, C, H, W) -> same shape; the K frames of a window move together.
+    """
+    if pad == 0:
+        return images
+    b, k, c, h, w = images.shape
+    padded = F.pad(images.flatten(1, 2), (pad, pad, pad, pad), mode="replicate")
+    offsets = torch.randint(0, 2 * pad + 1, (2, b), device=images.device)
+    rows = offsets[0, :, None] + torch.arange(h, device=images.device)  # (B, H)
+    cols = offsets[1, :, None] + torch.arange(w, device=images.device)  # (B, W)
+    batch = torch.arange(b, device=images.device)[:, None, None]
+    shifted = padded[batch, :, rows[:, :, None], cols[:, None, :]]  # (B, H, W, K * C)
+    return shifted.permute(0, 3, 1, 2).unflatten(1, (k, c))
+
+
 def gripper_commands(class_index: Tensor) -> Tensor:
     """Map gripper class indices (0, 1, 2) to commands (-1, 0, +1), as float."""
     return class_index.to(torch.get_default_dtype()) - 1.0
@@ -168,6 +185,9 @@ class VMCPolicy(PreTrainedPolicy):
     def forward(self, batch: dict[str, Tensor]) -> tuple[Tensor, dict[str, float]]:
         """Training loss on the last step of each K-frame window.
 
+        The frames are augmented by `random_shift` (config `image_shift_pad`); `forward` is the training
+        loss, so this does not depend on `self.training` (LeRobot 0.4's in-training eval leaves eval mode on).
+
         Args:
             batch: image (B, K, 3, H, W), `observation.state` (B, K, D), `observation.environment_state`
                 (B, K, 6) (the targets), `action` (B, 4), optional `observation.state_is_pad` (B, K).
@@ -187,6 +207,7 @@ class VMCPolicy(PreTrainedPolicy):
         if action.dim() == 3:
             action = action[:, -1]
         b, k = images.shape[:2]
+        images = random_shift(images, self.config.image_shift_pad)
         s = self.net.encode(images.flatten(0, 1), state.flatten(0, 1)).unflatten(0, (b, k))
         e = self.net.unroll(s, batch.get(f"{OBS_STATE}_is_pad"))
         # Masks are always drawn in training (concrete dropout must not depend on `self.training`).
