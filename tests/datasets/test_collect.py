@@ -112,6 +112,8 @@ def test_episodes_come_from_their_split_and_replay_open_loop(collected):
 
 def test_noisy_demos_label_the_expert_action_and_record_the_noisy_states(tmp_path):
     """DART: the robot executes label + noise; replaying exactly that reproduces the recorded states."""
+    for name in ("noisy", "clean", "again"):
+        (tmp_path / name).mkdir()
     recorder = rollout.Recorder("pick_place", IMAGE_SIZE, "train", 0, tmp_path / "noisy", action_noise=0.15)
     clean = rollout.Recorder("pick_place", IMAGE_SIZE, "train", 0, tmp_path / "clean")
     assert recorder.record(0) == (0, True) and clean.record(0) == (0, True)
