@@ -9,7 +9,6 @@ from lerobot_ivmc.experts.waypoint_expert import Waypoint, WaypointExpert
 
 HOVER = 0.1  # approach and carry height above the cube's resting centre
 RELEASE_HEIGHT = 0.02  # the cube's centre is released this far above its resting height
-GRASP_STEPS = 4  # steps for the fingers to close or open
 
 
 class PickPlaceExpert(WaypointExpert):
@@ -27,10 +26,10 @@ class PickPlaceExpert(WaypointExpert):
         return [
             Waypoint(lambda env: at_cube(env) + [0, 0, HOVER], GRIPPER_OPEN, tolerance=0.02),
             Waypoint(at_cube, GRIPPER_OPEN, tolerance=0.008),
-            Waypoint(at_cube, GRIPPER_CLOSE, tolerance=0.02, hold_steps=GRASP_STEPS),
+            Waypoint(at_cube, GRIPPER_CLOSE, tolerance=0.02, settle_fingers=True),
             Waypoint(lambda env: at_cube(env) + [0, 0, HOVER], GRIPPER_CLOSE, tolerance=0.02),
             Waypoint(over_target(HOVER), GRIPPER_CLOSE, tolerance=0.015),
             Waypoint(over_target(RELEASE_HEIGHT), GRIPPER_CLOSE, tolerance=0.01),
-            Waypoint(over_target(RELEASE_HEIGHT), GRIPPER_OPEN, tolerance=0.02, hold_steps=GRASP_STEPS),
+            Waypoint(over_target(RELEASE_HEIGHT), GRIPPER_OPEN, tolerance=0.02, settle_fingers=True),
             Waypoint(over_target(HOVER), GRIPPER_OPEN, tolerance=0.02),
         ]

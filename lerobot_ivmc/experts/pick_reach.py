@@ -10,7 +10,6 @@ from lerobot_ivmc.experts.waypoint_expert import Waypoint, WaypointExpert
 
 HOVER = 0.1
 TOUCH_END_HEIGHT = 0.012  # aim the far end's centre this far above the table
-GRASP_STEPS = 4
 
 
 class PickReachExpert(WaypointExpert):
@@ -33,7 +32,7 @@ class PickReachExpert(WaypointExpert):
         return [
             Waypoint(lambda env: at_grasp(env) + [0, 0, HOVER], GRIPPER_OPEN, tolerance=0.02),
             Waypoint(at_grasp, GRIPPER_OPEN, tolerance=0.008),
-            Waypoint(at_grasp, GRIPPER_CLOSE, tolerance=0.02, hold_steps=GRASP_STEPS),
+            Waypoint(at_grasp, GRIPPER_CLOSE, tolerance=0.02, settle_fingers=True),
             Waypoint(lambda env: env.grip_position + [0, 0, HOVER], GRIPPER_CLOSE, tolerance=0.02),
             Waypoint(end_over_target(HOVER), GRIPPER_CLOSE, tolerance=0.015),
             Waypoint(end_over_target(TOUCH_END_HEIGHT), GRIPPER_CLOSE, tolerance=0.008),

@@ -26,7 +26,10 @@ class Waypoint:
         position: env -> (3,) world position the grip point should reach.
         gripper: command sent while this waypoint is active (-1 close, 0 no-op, +1 open).
         tolerance: distance in metres at which the waypoint counts as reached.
-        hold_steps: steps to stay after reaching it (e.g. while the fingers close).
+        hold_steps: steps to stay after reaching it.
+        settle_fingers: after reaching it, also stay until the fingers have stopped moving (a grasp or a
+            release is complete). The hand-off is then observable: a learned policy sees the fingers come to
+            rest and moves on, instead of having to count stationary frames.
         speed: largest grip-point displacement per step, in metres.
     """
 
@@ -34,6 +37,7 @@ class Waypoint:
     gripper: int
     tolerance: float = 0.01
     hold_steps: int = 0
+    settle_fingers: bool = False
     speed: float = 0.03
 
 
@@ -44,6 +48,8 @@ class WaypointExpert:
     gain = 0.9
     # Steps allowed per waypoint before moving on anyway, so a blocked motion cannot stall the demo.
     max_steps_per_waypoint = 40
+    # Fingers count as at rest once both moved less than this (metres) over the last step.
+    finger_settle_tolerance = 1.5e-3
 
     def __init__(self, env: IvmcFetchEnv):
         self.env = env
@@ -60,6 +66,7 @@ class WaypointExpert:
         self._goal = None
         self._steps_on_waypoint = 0
         self._held = 0
+        self._last_fingers = self.env.finger_positions.copy()
 
     @property
     def done(self) -> bool:
@@ -75,14 +82,21 @@ class WaypointExpert:
             low, high = self.env.grip_workspace
             self._goal = np.clip(waypoint.position(self.env), low, high)
         error = self._goal - self.env.grip_position
+        fingers = self.env.finger_positions.copy()
+        fingers_at_rest = np.abs(fingers - self._last_fingers).max() < self.finger_settle_tolerance
+        self._last_fingers = fingers
         reached = np.linalg.norm(error) < waypoint.tolerance
         if reached:
             self._held += 1
         self._steps_on_waypoint += 1
-        if (reached and self._held > waypoint.hold_steps) or (
+        settled = not waypoint.settle_fingers or (self._held > 1 and fingers_at_rest)
+        if (reached and self._held > waypoint.hold_steps and settled) or (
             self._steps_on_waypoint >= self.max_steps_per_waypoint
         ):
+            # Act for the next waypoint right away, so that the label switches on the very frame whose
+            # state completed the waypoint (no frame of the old waypoint's command after it is done).
             self._advance()
+            return self.act()
         step = self.gain * error
         norm = np.linalg.norm(step)
         if norm > waypoint.speed:
