@@ -14,12 +14,10 @@ import argparse
 
 import numpy as np
 import torch
-from lerobot.configs.policies import PreTrainedConfig
+from checkpoint import InspectedPolicy
 from lerobot.datasets.lerobot_dataset import LeRobotDataset
-from lerobot.policies.factory import get_policy_class, make_pre_post_processors
 from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
 
-import lerobot_ivmc  # noqa: F401  (registers the policy types)
 from lerobot_ivmc.datasets.features import IMAGE_KEY
 
 
@@ -34,14 +32,9 @@ def main() -> None:
     args = parser.parse_args()
     torch.set_num_threads(1)
 
-    config = PreTrainedConfig.from_pretrained(args.policy_path)
-    policy = get_policy_class(config.type).from_pretrained(args.policy_path)
-    policy.mc_sampling = False
-    policy.eval()
-    preprocessor, _ = make_pre_post_processors(policy.config, pretrained_path=args.policy_path)
+    inspected = InspectedPolicy(args.policy_path)
+    policy, preprocessor = inspected.policy, inspected.preprocessor
     dataset = LeRobotDataset(args.repo_id, root=args.dataset_root)
-    stats = dataset.meta.stats[OBS_ENV_STATE]
-    mean, std = np.asarray(stats["mean"]), np.asarray(stats["std"])
 
     delta_errors, gripper_hits, aux_errors = [], [], []
     starts = dataset.meta.episodes["dataset_from_index"]
@@ -57,7 +50,7 @@ def main() -> None:
             expert = item[ACTION].numpy()
             delta_errors.append(np.abs(delta_ee[0].numpy() - expert[:3]))
             gripper_hits.append(int(logits[0].argmax()) - 1 == int(round(float(expert[3]))))
-            predicted_aux = torch.cat([ee[0], obj[0]]).numpy() * std + mean
+            predicted_aux = inspected.auxiliary_positions(ee, obj)
             aux_errors.append(np.abs(predicted_aux - item[OBS_ENV_STATE].numpy()))
     delta_errors, aux_errors = np.array(delta_errors), np.array(aux_errors) * 100
     print(f"{args.policy_path}: {args.episodes} episodes, {len(gripper_hits)} frames of {args.repo_id}")

@@ -13,17 +13,13 @@ import argparse
 
 import numpy as np
 import torch
-from lerobot.configs.policies import PreTrainedConfig
+from checkpoint import InspectedPolicy
 from lerobot.envs.utils import preprocess_observation
-from lerobot.policies.factory import get_policy_class, make_pre_post_processors
-from lerobot.processor import NormalizerProcessorStep
-from lerobot.utils.constants import OBS_ENV_STATE
 
-import lerobot_ivmc  # noqa: F401  (registers the policy types)
 from lerobot_ivmc.envs import TASKS, make_task_env
 from lerobot_ivmc.envs.scenes import SPLITS
 from lerobot_ivmc.experts import make_expert
-from lerobot_ivmc.policies.vmc.modeling_vmc import gripper_commands
+from lerobot_ivmc.policies.vmc.modeling_vmc import deterministic_action
 
 
 def main() -> None:
@@ -39,18 +35,10 @@ def main() -> None:
     args = parser.parse_args()
     torch.set_num_threads(1)
 
-    config = PreTrainedConfig.from_pretrained(args.policy_path)
-    policy = get_policy_class(config.type).from_pretrained(args.policy_path)
-    policy.mc_sampling = False  # the deterministic pass: dropout off for bvmc
-    policy.eval()
-    preprocessor, _ = make_pre_post_processors(policy.config, pretrained_path=args.policy_path)
-    normalizer = next(s for s in preprocessor.steps if isinstance(s, NormalizerProcessorStep))
-    aux_mean = np.asarray(normalizer.stats[OBS_ENV_STATE]["mean"])
-    aux_std = np.asarray(normalizer.stats[OBS_ENV_STATE]["std"])
-
-    env = make_task_env(
-        args.task, image_size=config.image_features[policy.image_key].shape[-1], split=args.split
-    )
+    inspected = InspectedPolicy(args.policy_path)
+    policy = inspected.policy
+    image_size = policy.config.image_features[policy.image_key].shape[-1]
+    env = make_task_env(args.task, image_size=image_size, split=args.split)
     expert = make_expert(env)
     observation, info = env.reset(seed=args.seed)
     expert.reset()
@@ -62,11 +50,11 @@ def main() -> None:
             "agent_pos": observation["agent_pos"][None],
             "environment_state": observation["environment_state"][None],
         }
-        batch = preprocessor(preprocess_observation(batched))
+        batch = inspected.preprocessor(preprocess_observation(batched))
         with torch.no_grad():
             delta_ee, logits, ee, obj = policy.net.decode(policy.step_embedding(batch), stochastic=False)
-        action = torch.cat([delta_ee, gripper_commands(logits.argmax(-1))[:, None]], dim=-1)[0].numpy()
-        predicted = torch.cat([ee[0], obj[0]]).numpy() * aux_std + aux_mean
+        action = deterministic_action(delta_ee, logits)[0].numpy()
+        predicted = inspected.auxiliary_positions(ee, obj)
         expert_action = expert.act()
         if t % args.every == 0:
             print(

@@ -134,6 +134,11 @@ def gripper_commands(class_index: Tensor) -> Tensor:
     return class_index.to(torch.get_default_dtype()) - 1.0
 
 
+def deterministic_action(delta_ee: Tensor, gripper_logits: Tensor) -> Tensor:
+    """The executed action (B, 4) from one decoded pass: delta EE and the most likely gripper command."""
+    return torch.cat([delta_ee, gripper_commands(gripper_logits.argmax(dim=-1))[:, None]], dim=-1)
+
+
 def gripper_labels(command: Tensor) -> Tensor:
     """Map gripper commands in [-1, 1] to class indices: round to the nearest of -1, 0, +1, then shift."""
     return (torch.round(command).clamp(-1, 1) + 1).long()
@@ -255,7 +260,7 @@ class VMCPolicy(PreTrainedPolicy):
         self.eval()
         embedding = self.step_embedding(batch)
         delta_ee, logits, _, _ = self.net.decode(embedding, stochastic=False)
-        return torch.cat([delta_ee, gripper_commands(logits.argmax(dim=-1))[:, None]], dim=-1)
+        return deterministic_action(delta_ee, logits)
 
     @torch.no_grad()
     def predict_action_chunk(self, batch: dict[str, Tensor], **kwargs) -> Tensor:
