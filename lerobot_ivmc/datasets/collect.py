@@ -272,6 +272,11 @@ def _plan(start: int, need: int, successes: dict, failures: set) -> list[int]:
     return attempts
 
 
+def _recorder_args(cfg: CollectConfig, episodes_dir: Path) -> tuple:
+    """The arguments of `rollout.Recorder` (and of `rollout.init_worker`, which builds one per worker)."""
+    return (cfg.task, cfg.image_size, cfg.split, cfg.seed, episodes_dir, cfg.action_noise)
+
+
 def _make_pool(cfg: CollectConfig, episodes_dir: Path) -> multiprocessing.pool.Pool:
     """Worker processes that record attempts.
 
@@ -287,7 +292,7 @@ def _make_pool(cfg: CollectConfig, episodes_dir: Path) -> multiprocessing.pool.P
     return context.Pool(
         cfg.num_workers,
         initializer=rollout.init_worker,
-        initargs=(cfg.task, cfg.image_size, cfg.split, cfg.seed, str(episodes_dir), cfg.action_noise),
+        initargs=_recorder_args(cfg, episodes_dir),
     )
 
 
@@ -328,9 +333,7 @@ def _run_collection(cfg: CollectConfig, work: Path, summary: CollectSummary) -> 
                         f"(staged episodes are kept in {episodes_dir})."
                     )
                 if cfg.num_workers == 0:
-                    recorder = recorder or rollout.Recorder(
-                        cfg.task, cfg.image_size, cfg.split, cfg.seed, episodes_dir, cfg.action_noise
-                    )
+                    recorder = recorder or rollout.Recorder(*_recorder_args(cfg, episodes_dir))
                     results = map(recorder.record, attempts)
                 else:
                     pool = pool or _make_pool(cfg, episodes_dir)

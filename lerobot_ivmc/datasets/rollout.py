@@ -118,7 +118,7 @@ _worker_recorder: Recorder | None = None
 
 
 def init_worker(
-    task: str, image_size: int, split: str, base_seed: int, episodes_dir: str, action_noise: float
+    task: str, image_size: int, split: str, base_seed: int, episodes_dir: Path, action_noise: float
 ) -> None:
     """Pool initializer: build the worker's env once. Ctrl-C is left to the parent, which stops the pool."""
     global _worker_recorder
