@@ -1,4 +1,4 @@
-"""End to end: the real `lerobot-train` trains both policies on a tiny expert dataset; the checkpoint
+"""End to end: the real `lerobot-train` (and `lerobot-ivmc-train`) trains both policies on a tiny expert dataset; the checkpoint
 loads with LeRobot's own loaders and acts in the env through `lerobot-eval`'s rollout."""
 
 from __future__ import annotations
@@ -20,17 +20,20 @@ from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
 STEPS = 5
 
 
-def lerobot_train() -> str:
-    """The `lerobot-train` console script of this interpreter's environment."""
-    script = Path(sys.executable).with_name("lerobot-train")
-    return str(script) if script.exists() else shutil.which("lerobot-train")
+def console_script(name: str) -> str:
+    """A console script of this interpreter's environment (`lerobot-train`, `lerobot-ivmc-train`)."""
+    script = Path(sys.executable).with_name(name)
+    return str(script) if script.exists() else shutil.which(name)
 
 
-@pytest.mark.parametrize("policy_type", ["vmc", "bvmc"])
-def test_lerobot_train_then_load_and_act(policy_type: str, tiny_dataset: Path, tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    "command, policy_type",
+    [("lerobot-train", "vmc"), ("lerobot-train", "bvmc"), ("lerobot-ivmc-train", "bvmc")],
+)
+def test_train_then_load_and_act(command: str, policy_type: str, tiny_dataset: Path, tmp_path: Path) -> None:
     out = tmp_path / "train"
     cmd = [
-        lerobot_train(),
+        console_script(command),
         f"--policy.type={policy_type}",
         f"--dataset.repo_id={TINY_REPO_ID}",
         f"--dataset.root={tiny_dataset}",
@@ -49,6 +52,8 @@ def test_lerobot_train_then_load_and_act(policy_type: str, tiny_dataset: Path, t
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     checkpoint = out / "checkpoints" / f"{STEPS:06d}" / "pretrained_model"
     assert (checkpoint / "model.safetensors").exists()
+    # The learning rate decays over the run (cosine schedule), and the scheduler state is saved to resume.
+    assert (checkpoint.parent / "training_state" / "scheduler_state.json").exists()
 
     policy = get_policy_class(policy_type).from_pretrained(checkpoint)
     assert policy.config.type == policy_type

@@ -232,11 +232,29 @@ def test_bad_config_values_are_refused() -> None:
         BVMCConfig(device="cpu", num_samples=1)
     with pytest.raises(ValueError, match="IDENTITY"):
         VMCConfig(device="cpu", normalization_mapping={"ACTION": NormalizationMode.MEAN_STD})
+    with pytest.raises(ValueError, match="scheduler_decay_steps"):
+        VMCConfig(device="cpu", scheduler_decay_steps=-1)
     policy = make_policy(BVMCPolicy)
     with pytest.raises(ValueError, match="at least 2 samples"):
         policy.sample(observation_batch(1), num_samples=1)
     with pytest.raises(ValueError, match="one frame per step"):
         policy.select_action(make_batch(1, k=4))
+
+
+def test_learning_rate_warms_up_then_decays_over_the_whole_run() -> None:
+    config = make_config(VMCConfig, optimizer_lr=1e-3, scheduler_decay_lr=1e-5)
+    steps = 2_000  # shorter than scheduler_decay_steps: LeRobot fits warm-up and decay into the run
+    optimizer = torch.optim.Adam([torch.nn.Parameter(torch.zeros(1))], lr=config.optimizer_lr)
+    scheduler = config.get_scheduler_preset().build(optimizer, steps)
+    lrs = []
+    for _ in range(steps + 1):
+        lrs.append(optimizer.param_groups[0]["lr"])
+        optimizer.step()
+        scheduler.step()
+    peak = max(lrs)
+    assert lrs[0] < 0.1 * peak and peak == pytest.approx(1e-3, rel=1e-3)
+    assert lrs[steps // 2] < peak and lrs[-1] == pytest.approx(1e-5, rel=1e-3)
+    assert make_config(VMCConfig, scheduler_decay_steps=0).get_scheduler_preset() is None
 
 
 def test_random_shift_moves_each_window_rigidly_within_the_pad() -> None:

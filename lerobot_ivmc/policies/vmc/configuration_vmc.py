@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from lerobot.configs.policies import PreTrainedConfig
 from lerobot.configs.types import FeatureType, NormalizationMode
 from lerobot.optim.optimizers import AdamConfig
+from lerobot.optim.schedulers import CosineDecayWithWarmupSchedulerConfig
 from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
 
 # Layout of the action: delta end-effector command (3) followed by the gripper command in {-1, 0, +1}.
@@ -42,6 +43,11 @@ class VMCConfig(PreTrainedConfig):
         optimizer_lr: Adam learning rate.
         optimizer_weight_decay: Adam weight decay.
         optimizer_grad_clip_norm: gradient clipping norm applied by lerobot-train.
+        scheduler_warmup_steps: linear learning-rate warm-up steps.
+        scheduler_decay_steps: steps of the cosine decay from `optimizer_lr` to `scheduler_decay_lr`. LeRobot
+            shrinks warm-up and decay to `--steps` when the run is shorter, so by default the decay spans
+            the whole run; 0 keeps the learning rate constant (as the paper's Adam).
+        scheduler_decay_lr: learning rate at the end of the decay.
     """
 
     # Input / output structure.
@@ -73,6 +79,9 @@ class VMCConfig(PreTrainedConfig):
     optimizer_lr: float = 3e-4
     optimizer_weight_decay: float = 0.0
     optimizer_grad_clip_norm: float = 10.0
+    scheduler_warmup_steps: int = 1_000
+    scheduler_decay_steps: int = 100_000
+    scheduler_decay_lr: float = 1e-5
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -87,6 +96,11 @@ class VMCConfig(PreTrainedConfig):
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)}.")
         if self.image_shift_pad < 0:
             raise ValueError(f"image_shift_pad must be >= 0 pixels, got {self.image_shift_pad}.")
+        if self.scheduler_warmup_steps < 0 or self.scheduler_decay_steps < 0:
+            raise ValueError(
+                "scheduler_warmup_steps and scheduler_decay_steps must be >= 0, got "
+                f"{self.scheduler_warmup_steps} and {self.scheduler_decay_steps}."
+            )
         if self.rollout_memory not in ROLLOUT_MEMORY_MODES:
             raise ValueError(
                 f"rollout_memory must be one of {ROLLOUT_MEMORY_MODES}, got {self.rollout_memory!r}."
@@ -104,8 +118,15 @@ class VMCConfig(PreTrainedConfig):
             grad_clip_norm=self.optimizer_grad_clip_norm,
         )
 
-    def get_scheduler_preset(self) -> None:
-        return None
+    def get_scheduler_preset(self) -> CosineDecayWithWarmupSchedulerConfig | None:
+        if self.scheduler_decay_steps == 0:
+            return None
+        return CosineDecayWithWarmupSchedulerConfig(
+            num_warmup_steps=self.scheduler_warmup_steps,
+            num_decay_steps=self.scheduler_decay_steps,
+            peak_lr=self.optimizer_lr,
+            decay_lr=self.scheduler_decay_lr,
+        )
 
     @property
     def image_feature_key(self) -> str:
