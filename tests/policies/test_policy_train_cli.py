@@ -1,5 +1,6 @@
-"""End to end: the real `lerobot-train` (and `lerobot-ivmc-train`) trains both policies on a tiny expert dataset; the checkpoint
-loads with LeRobot's own loaders and acts in the env through `lerobot-eval`'s rollout."""
+"""End to end: the real `lerobot-train` (and `lerobot-ivmc-train`) trains both policies on a tiny expert
+dataset; the checkpoint loads with LeRobot's own loaders and acts in the env through `lerobot-eval`'s
+rollout."""
 
 from __future__ import annotations
 
