@@ -75,9 +75,10 @@ def test_forward_gives_a_finite_loss_and_leaves_the_batch_untouched(
     assert torch.isfinite(policy.forward(single)[0])
 
 
-def test_padded_window_equals_a_rollout_from_reset() -> None:
+@pytest.mark.parametrize("rollout_memory", ["window", "trajectory"])
+def test_padded_window_equals_a_rollout_from_reset(rollout_memory: str) -> None:
     """Training on a window padded at the episode start sees what the rollout sees after reset()."""
-    policy = make_policy(VMCPolicy)
+    policy = make_policy(VMCPolicy, rollout_memory=rollout_memory)
     batch = make_batch(1, k=4)
     batch[f"{OBS_STATE}_is_pad"] = torch.tensor([[True, True, False, False]])
     s = policy.net.encode(batch[IMAGE_KEY][0], batch[OBS_STATE][0])[None]
@@ -171,8 +172,9 @@ def test_batched_head_equals_separate_full_passes_with_the_same_masks(num_fc_lay
     torch.testing.assert_close(policy.get_memory(), memory_after)
 
 
-def test_memory_save_restore_reproduces_outputs_exactly() -> None:
-    policy = make_policy(BVMCPolicy)
+@pytest.mark.parametrize("rollout_memory", ["window", "trajectory"])
+def test_memory_save_restore_reproduces_outputs_exactly(rollout_memory: str) -> None:
+    policy = make_policy(BVMCPolicy, rollout_memory=rollout_memory)
     for seed in range(3):
         policy.sample(observation_batch(1, seed=seed))
     memory = policy.get_memory()

@@ -145,7 +145,7 @@ def gripper_labels(command: Tensor) -> Tensor:
 
 
 class VMCPolicy(PreTrainedPolicy):
-    """Deterministic visuomotor controller. At rollout the LSTM memory runs along the whole trajectory.
+    """Deterministic visuomotor controller; `rollout_memory` sets how its memory runs at rollout.
 
     Args:
         config: the policy config.
