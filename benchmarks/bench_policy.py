@@ -28,11 +28,14 @@ from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
 
 from lerobot_ivmc.policies import BVMCConfig, BVMCPolicy, VMCConfig, VMCPolicy
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import make_prediction
+from lerobot_ivmc.policies.vmc.configuration_vmc import ROLLOUT_MEMORY_MODES
 
 IMAGE_KEY = "observation.images.front"
 
 
-def make_policy(cls: type[VMCPolicy], config_cls: type[VMCConfig], image_size: int) -> VMCPolicy:
+def make_policy(
+    cls: type[VMCPolicy], config_cls: type[VMCConfig], image_size: int, rollout_memory: str
+) -> VMCPolicy:
     inputs = {
         IMAGE_KEY: PolicyFeature(type=FeatureType.VISUAL, shape=(3, image_size, image_size)),
         OBS_STATE: PolicyFeature(type=FeatureType.STATE, shape=(9,)),
@@ -40,7 +43,13 @@ def make_policy(cls: type[VMCPolicy], config_cls: type[VMCConfig], image_size: i
     }
     outputs = {ACTION: PolicyFeature(type=FeatureType.ACTION, shape=(4,))}
     extra = {"dataset_size": 100_000} if config_cls is BVMCConfig else {}
-    config = config_cls(device="cpu", input_features=inputs, output_features=outputs, **extra)
+    config = config_cls(
+        device="cpu",
+        input_features=inputs,
+        output_features=outputs,
+        rollout_memory=rollout_memory,
+        **extra,
+    )
     return cls(config).eval()
 
 
@@ -124,13 +133,16 @@ def main() -> None:
     parser.add_argument("--train-steps", type=int, default=20, help="timed training steps")
     parser.add_argument("--image-size", type=int, default=64)
     parser.add_argument("--threads", type=int, default=None, help="torch threads (default: torch's)")
+    parser.add_argument(
+        "--rollout-memory", default="window", choices=ROLLOUT_MEMORY_MODES, help="policies' rollout memory"
+    )
     args = parser.parse_args()
     if args.threads:
         torch.set_num_threads(args.threads)
     torch.manual_seed(0)
 
-    vmc = make_policy(VMCPolicy, VMCConfig, args.image_size)
-    bvmc = make_policy(BVMCPolicy, BVMCConfig, args.image_size)
+    vmc = make_policy(VMCPolicy, VMCConfig, args.image_size, args.rollout_memory)
+    bvmc = make_policy(BVMCPolicy, BVMCConfig, args.image_size, args.rollout_memory)
     obs = {
         IMAGE_KEY: torch.rand(1, 3, args.image_size, args.image_size),
         OBS_STATE: torch.randn(1, 9),
@@ -149,7 +161,8 @@ def main() -> None:
         t_naive = time_per_call(lambda: naive_step(bvmc, obs, s), max(args.rounds // 2, 5), warmup=2)
 
     print(
-        f"torch {torch.__version__}, {torch.get_num_threads()} threads, {args.image_size}x{args.image_size}"
+        f"torch {torch.__version__}, {torch.get_num_threads()} threads, {args.image_size}x{args.image_size}, "
+        f"rollout_memory={args.rollout_memory}"
     )
     print(
         f"per-step latency, batch of 1 rollout, median (best) of {args.rounds} rounds x {args.calls} steps:"
