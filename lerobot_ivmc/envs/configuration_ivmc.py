@@ -9,7 +9,7 @@ from lerobot.envs.configs import EnvConfig
 from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_IMAGES, OBS_STATE
 
 from lerobot_ivmc.envs import MAX_EPISODE_STEPS, check_task, gym_id
-from lerobot_ivmc.envs.fetch_env import OBS_TYPES
+from lerobot_ivmc.envs.fetch_env import OBS_TYPES, check_image_size
 from lerobot_ivmc.envs.scene_model import CAMERA_NAME
 from lerobot_ivmc.envs.scenes import SPLITS
 
@@ -60,9 +60,11 @@ class IvmcEnv(EnvConfig):
         check_task(self.task)
         if self.obs_type not in OBS_TYPES:
             raise ValueError(f"Unknown obs_type {self.obs_type!r}; choose one of {OBS_TYPES}.")
-        for name in ("image_size", "render_size", "episode_length", "fps"):
+        for name in ("episode_length", "fps"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"env.{name} must be positive, got {getattr(self, name)}.")
+        for name in ("image_size", "render_size"):
+            check_image_size(f"env.{name}", getattr(self, name))
         if self.split not in (*SPLITS, "all"):
             raise ValueError(f"Unknown split {self.split!r}; choose one of {(*SPLITS, 'all')}.")
         if self.obs_type == "pixels_agent_pos":

@@ -44,6 +44,10 @@ FINGER_JOINTS = ("robot0:l_gripper_finger_joint", "robot0:r_gripper_finger_joint
 FINGER_GEOMS = ("robot0:l_gripper_finger_link", "robot0:r_gripper_finger_link")
 GRIP_SITE = "robot0:grip"
 OBS_TYPES = ("pixels_agent_pos", "state")
+# Largest camera image and render() frame side, in pixels. MuJoCo renders offscreen into a framebuffer of
+# the model's `vis.global_.offwidth` x `offheight` (640 x 480 in the Fetch XML); the env enlarges it to the
+# sizes it is asked for, up to this bound, which every OpenGL implementation's renderbuffers allow.
+MAX_IMAGE_SIZE = 2048
 
 GRIPPER_CLOSE, GRIPPER_NOOP, GRIPPER_OPEN = -1, 0, 1
 POSITION_SCALE = 0.05  # metres per unit of action, as in gymnasium-robotics Fetch
@@ -99,8 +103,7 @@ class IvmcFetchEnv(gym.Env, EzPickle):
         if obs_type not in OBS_TYPES:
             raise ValueError(f"Unknown obs_type {obs_type!r}; choose one of {OBS_TYPES}.")
         for name, size in (("image_size", image_size), ("render_size", render_size)):
-            if not isinstance(size, int | np.integer) or size <= 0:
-                raise ValueError(f"{name} must be a positive integer number of pixels, got {size!r}.")
+            check_image_size(name, size)
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"Unsupported render_mode {render_mode!r}; only 'rgb_array' is available.")
         self.obs_type = obs_type
@@ -113,6 +116,10 @@ class IvmcFetchEnv(gym.Env, EzPickle):
         self.render_mode = render_mode
 
         self.model = scene_model.build_model(self.object_shape, self.target_radius)
+        # Enlarge the offscreen framebuffer to the largest frame rendered; smaller frames are unaffected.
+        framebuffer = self.model.vis.global_
+        framebuffer.offwidth = max(framebuffer.offwidth, self.image_size, self.render_size)
+        framebuffer.offheight = max(framebuffer.offheight, self.image_size, self.render_size)
         self.data = mujoco.MjData(self.model)
         self._renderers: dict[int, mujoco.Renderer] = {}
         self._object_geom = self.model.geom(scene_model.OBJECT_BODY).id
@@ -252,6 +259,37 @@ class IvmcFetchEnv(gym.Env, EzPickle):
         """Height of the object's centre above where it rests on the table, in metres."""
         return float(self.object_position[2] - self.object_shape.rest_height)
 
+    # ------------------------------------------------------------------------------------ snapshots
+    def get_snapshot(self) -> dict[str, Any]:
+        """Everything `step` depends on: the full physics state, the finger target and the milestones.
+
+        `set_snapshot` returns the env to it exactly (same observations and rewards for the same actions),
+        e.g. to try several actions from one state.
+        """
+        spec = mujoco.mjtState.mjSTATE_INTEGRATION  # physics, controls, mocap and warm start
+        physics = np.empty(mujoco.mj_stateSize(self.model, spec))
+        mujoco.mj_getState(self.model, self.data, physics, spec)
+        return {
+            "physics": physics,
+            # `step` moves the mocap from the body poses mj_step left behind (computed before its last
+            # integration); recomputing them would shift every later step slightly.
+            "body_pose": (self.data.xpos.copy(), self.data.xquat.copy()),
+            "target_position": self.model.body_pos[self._target_body].copy(),
+            "finger_target": self._finger_target,
+            "progress": dict(self.progress),
+            "scene": self.scene,
+        }
+
+    def set_snapshot(self, snapshot: dict[str, Any]) -> None:
+        """Restore a state saved by `get_snapshot`."""
+        mujoco.mj_setState(self.model, self.data, snapshot["physics"], mujoco.mjtState.mjSTATE_INTEGRATION)
+        self.model.body_pos[self._target_body] = snapshot["target_position"]
+        self._finger_target = snapshot["finger_target"]
+        self.progress = dict(snapshot["progress"])
+        self.scene = snapshot["scene"]
+        mujoco.mj_forward(self.model, self.data)
+        self.data.xpos[:], self.data.xquat[:] = snapshot["body_pose"]
+
     # -------------------------------------------------------------------------------------------- helpers
     def _settle_robot(self) -> np.ndarray:
         """Put the arm in its start pose (as gymnasium-robotics' Fetch does) and snapshot the physics."""
@@ -318,6 +356,14 @@ class IvmcFetchEnv(gym.Env, EzPickle):
         renderer = self._renderers[size]
         renderer.update_scene(self.data, camera=scene_model.CAMERA_NAME)
         return renderer.render().copy()
+
+
+def check_image_size(name: str, size: Any) -> None:
+    """Refuse an image side MuJoCo cannot render here, naming the allowed range."""
+    if not isinstance(size, int | np.integer) or isinstance(size, bool) or not 0 < size <= MAX_IMAGE_SIZE:
+        raise ValueError(
+            f"{name} must be a positive integer number of pixels, at most {MAX_IMAGE_SIZE}, got {size!r}."
+        )
 
 
 def _parse_action(action: np.ndarray) -> tuple[np.ndarray, int]:

@@ -128,6 +128,24 @@ def test_bad_env_arguments_are_refused(kwargs, message):
         make_task_env("push", **kwargs)
 
 
+@pytest.mark.parametrize("name", ["image_size", "render_size"])
+def test_sizes_mujoco_cannot_render_are_refused_with_the_allowed_range(name):
+    with pytest.raises(ValueError, match=f"{name} must be a positive integer number of pixels, at most 2048"):
+        make_task_env("push", **{name: 4096})
+
+
+def test_sizes_above_the_default_offscreen_framebuffer_render():
+    """The Fetch XML's framebuffer is 640 x 480; the env enlarges it to the sizes it is asked for."""
+    env = make_task_env("push", image_size=500, render_size=720)
+    observation, _ = env.reset(seed=0)
+    assert observation["pixels"]["front"].shape == (500, 500, 3) and observation["pixels"]["front"].std() > 0
+    assert env.render().shape == (720, 720, 3)
+    env.close()
+    small = make_task_env("push", image_size=32)
+    assert (small.model.vis.global_.offwidth, small.model.vis.global_.offheight) == (640, 480)  # unchanged
+    small.close()
+
+
 def test_unknown_task_is_refused_with_the_valid_names():
     with pytest.raises(ValueError, match="pick_place"):
         make_task_env("stack")

@@ -41,8 +41,10 @@ def test_bad_config_values_are_refused():
 
     with pytest.raises(ValueError, match="Unknown task"):
         IvmcEnv(task="stacking")
-    with pytest.raises(ValueError, match="image_size must be positive"):
+    with pytest.raises(ValueError, match="env.image_size must be a positive integer number of pixels"):
         IvmcEnv(task="push", image_size=0)
+    with pytest.raises(ValueError, match="env.render_size must be .* at most 2048, got 4096"):
+        IvmcEnv(task="push", render_size=4096)
 
 
 def test_plugin_is_discovered_by_lerobot():
