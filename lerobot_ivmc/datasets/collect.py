@@ -9,7 +9,9 @@ Attempt k replays the scene drawn by seed `attempt_seed(seed, k)` from the `--sp
 keeps the successful attempts in attempt order, so the same arguments always give the same episodes.
 Workers record attempts in parallel and stage each one durably; this process assembles the staged episodes
 in order into a LeRobotDataset with LeRobot's own writer. Killed at any moment and rerun with the same
-arguments, it continues from what was staged (see `lerobot_ivmc.datasets.staging`).
+arguments, it continues from what was staged (see `lerobot_ivmc.datasets.staging`). One collector writes a
+root at a time (`lerobot_ivmc.datasets.root_lock`), and a dataset is called complete only after its data
+and metadata are checked to agree (`lerobot_ivmc.datasets.verify`).
 
 Where the scene setup is recorded: every frame carries `scene.seed`, `scene.object_cell` and
 `scene.target_cell`; `meta/ivmc_collection.json` holds the collection spec (task, scene split, base seed,
@@ -37,6 +39,7 @@ from pathlib import Path
 import datasets
 import numpy as np
 from lerobot.datasets.lerobot_dataset import LeRobotDataset
+from lerobot.datasets.utils import STATS_PATH, write_json
 from tqdm import tqdm
 
 from lerobot_ivmc.datasets import rollout, staging
@@ -51,7 +54,10 @@ from lerobot_ivmc.datasets.features import (
     STATE_KEY,
     demo_features,
 )
+from lerobot_ivmc.datasets.root_lock import LOCK_FILE, RootLock
+from lerobot_ivmc.datasets.verify import dataset_problems
 from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, TASK_ENVS, TASKS, check_task, gym_id
+from lerobot_ivmc.envs.fetch_env import check_image_size
 from lerobot_ivmc.envs.scenes import SPLITS
 
 logger = logging.getLogger(__name__)
@@ -103,8 +109,7 @@ class CollectConfig:
             raise ValueError(f"num_episodes must be a positive integer, got {self.num_episodes!r}.")
         if self.split not in SPLITS:
             raise ValueError(f"Unknown split {self.split!r}; choose one of {SPLITS}.")
-        if not isinstance(self.image_size, int) or self.image_size <= 0:
-            raise ValueError(f"image_size must be a positive number of pixels, got {self.image_size!r}.")
+        check_image_size("image_size", self.image_size)
         if self.num_workers < 0:
             raise ValueError(f"num_workers must be >= 0, got {self.num_workers}.")
         if self.seed < 0:
@@ -112,6 +117,8 @@ class CollectConfig:
         if not 0.0 <= self.action_noise <= 1.0:
             raise ValueError(f"action_noise must be in [0, 1] action units, got {self.action_noise}.")
         self.root = Path(self.root) if self.root is not None else Path("data") / f"ivmc_{self.task}"
+        if self.root.exists() and not self.root.is_dir():
+            raise ValueError(f"root {self.root} is a file; give a folder (new, or one this command made).")
         self.repo_id = self.repo_id or f"local/ivmc_{self.task}"
         if self.repo_id.count("/") != 1:
             raise ValueError(f"repo_id must look like '<user>/<name>', got {self.repo_id!r}.")
@@ -204,6 +211,16 @@ class _Assembler:
         )
 
 
+def _sort_stats(build_root: Path) -> None:
+    """Rewrite LeRobot's `meta/stats.json` with sorted keys (it lists features in hash-seed order)."""
+
+    def sort(obj):
+        return {key: sort(obj[key]) for key in sorted(obj)} if isinstance(obj, dict) else obj
+
+    path = build_root / STATS_PATH
+    write_json(sort(staging.read_json(path)), path)
+
+
 @contextlib.contextmanager
 def _quiet_datasets() -> Iterator[None]:
     """Silence the `datasets` progress bars LeRobot triggers on every `save_episode`."""
@@ -216,8 +233,27 @@ def _quiet_datasets() -> Iterator[None]:
             datasets.enable_progress_bars()
 
 
+def _resume_hint(cfg: CollectConfig, spec: dict) -> str:
+    """How to continue an unfinished collection of `spec` in `cfg.root`, or drop it."""
+    args = f"--task {spec['task']} --split {spec['split']} --seed {spec['seed']}"
+    args += f" --image-size {spec['image_size']}"
+    args += " --video" * bool(spec.get("video"))
+    args += f" --action-noise {spec['action_noise']}" if spec.get("action_noise") else ""
+    return (
+        f"To finish it, rerun with its arguments: lerobot-ivmc-collect --root {cfg.root} "
+        f"--num-episodes {cfg.num_episodes} {args}; to drop it, remove {cfg.root / staging.WORK_DIR}."
+    )
+
+
+def _foreign_entries(root: Path, ours: set[str]) -> list[str]:
+    return sorted(path.name for path in root.iterdir() if path.name not in ours)
+
+
 def _prepare_root(cfg: CollectConfig) -> Path | None:
-    """Check `root` against the config; return the staging folder to collect into, or None if complete.
+    """Check `root` against the config; return the staging folder to collect into, or None if published.
+
+    Deletes only what the collector wrote: its staging folder's build and temporary files. A publish cut
+    short is finished, not rebuilt.
 
     Raises:
         ValueError: `root` holds something else: another task or feature spec, another episode count,
@@ -229,12 +265,27 @@ def _prepare_root(cfg: CollectConfig) -> Path | None:
     if work.exists() and not (work / staging.SPEC_FILE).exists():
         staging.remove_tree(work)  # killed before anything was staged
     if work.exists():
-        diffs = staging.spec_differences(staging.read_json(work / staging.SPEC_FILE), wanted)
+        stored = staging.read_json(work / staging.SPEC_FILE)
+        diffs = staging.spec_differences(stored, wanted)
         if diffs:
-            raise ValueError(f"{root} holds an unfinished collection of another spec: {'; '.join(diffs)}.")
-        # Dataset folders next to the staging folder are a publish cut short; they are rebuilt.
-        for name in (*staging.DATASET_DIRS, "images"):
-            staging.remove_tree(root / name)
+            raise ValueError(
+                f"{root} holds an unfinished collection of another spec: {'; '.join(diffs)}. "
+                + _resume_hint(cfg, stored)
+            )
+        ours = {staging.WORK_DIR, LOCK_FILE}
+        publishing = (work / staging.PUBLISH_FILE).exists()
+        if publishing:  # the folders already moved into the root are ours
+            ours |= {name for name in staging.read_json(work / staging.PUBLISH_FILE)}
+            ours -= {path.name for path in staging.publish_blockers(work, root)}
+        foreign = _foreign_entries(root, ours)
+        if foreign:
+            raise ValueError(
+                f"{root} holds an unfinished collection and files it did not write: {', '.join(foreign)}. "
+                f"Move them out of {root} and rerun; nothing was changed."
+            )
+        if publishing:
+            staging.finish_publish(work, root)
+            return None
         staging.remove_tree(work / staging.BUILD_DIR)
         (work / staging.EPISODES_DIR).mkdir(exist_ok=True)
         return work
@@ -252,9 +303,9 @@ def _prepare_root(cfg: CollectConfig) -> Path | None:
                 "collect into a new --root."
             )
         return None
-    if root.exists() and any(root.iterdir()):
+    if _foreign_entries(root, {LOCK_FILE}):
         raise ValueError(f"{root} is not empty and holds no collection of this plugin; refusing to write.")
-    work.mkdir(parents=True)
+    work.mkdir()
     staging.write_json(work / staging.SPEC_FILE, wanted)
     (work / staging.EPISODES_DIR).mkdir()
     return work
@@ -372,29 +423,45 @@ def collect_demos(cfg: CollectConfig) -> CollectSummary:
     """
     start = time.perf_counter()
     summary = CollectSummary(str(cfg.root), cfg.repo_id, cfg.task, cfg.split, cfg.num_episodes, 0)
-    work = _prepare_root(cfg)
-    if work is None:
-        logger.info("%s already holds the %d requested episodes.", cfg.root, cfg.num_episodes)
-        collection = staging.read_json(cfg.root / staging.COLLECTION_INFO_PATH)
-        summary.already_complete = True
-        summary.attempts, summary.failed_attempts = collection["attempts"], collection["failed_attempts"]
-        summary.episode_seeds = [ep["scene_seed"] for ep in collection["episodes"]]
-    else:
-        assembler = _run_collection(cfg, work, summary)
-        assembler.dataset.finalize()
-        summary.episode_seeds = [ep["scene_seed"] for ep in assembler.episodes]
-        collection = {
-            "spec": cfg.spec(),
-            "repo_id": cfg.repo_id,
-            "num_episodes": cfg.num_episodes,
-            "attempts": summary.attempts,
-            "failed_attempts": summary.failed_attempts,
-            "episodes": assembler.episodes,
-        }
-        staging.write_json(work / staging.BUILD_DIR / staging.COLLECTION_INFO_PATH, collection)
-        staging.publish(work, cfg.root)
+    with RootLock(cfg.root):
+        work = _prepare_root(cfg)
+        if work is None:
+            problems = dataset_problems(cfg.root, cfg.num_episodes, DEMO_EPISODE_STEPS)
+            if problems:
+                raise staging.CollectionError(
+                    f"{cfg.root} holds a damaged dataset, not the {cfg.num_episodes} episodes it should: "
+                    f"{'; '.join(problems)}. Nothing was changed; move it away or delete it, then collect "
+                    "again."
+                )
+            logger.info("%s already holds the %d requested episodes.", cfg.root, cfg.num_episodes)
+            collection = staging.read_json(cfg.root / staging.COLLECTION_INFO_PATH)
+            summary.already_complete = True
+            summary.attempts, summary.failed_attempts = collection["attempts"], collection["failed_attempts"]
+            summary.episode_seeds = [ep["scene_seed"] for ep in collection["episodes"]]
+        else:
+            assembler = _run_collection(cfg, work, summary)
+            assembler.dataset.finalize()
+            build = work / staging.BUILD_DIR
+            _sort_stats(build)
+            summary.episode_seeds = [ep["scene_seed"] for ep in assembler.episodes]
+            collection = {
+                "spec": cfg.spec(),
+                "repo_id": cfg.repo_id,
+                "num_episodes": cfg.num_episodes,
+                "attempts": summary.attempts,
+                "failed_attempts": summary.failed_attempts,
+                "episodes": assembler.episodes,
+            }
+            staging.write_json(build / staging.COLLECTION_INFO_PATH, collection)
+            problems = dataset_problems(build, cfg.num_episodes, DEMO_EPISODE_STEPS)
+            if problems:
+                raise staging.CollectionError(
+                    f"The assembled dataset failed its check: {'; '.join(problems)}. It was not published; "
+                    f"the staged episodes are kept in {work / staging.EPISODES_DIR}."
+                )
+            staging.publish(work, cfg.root)
     summary.num_frames = cfg.num_episodes * DEMO_EPISODE_STEPS
-    if cfg.push_to_hub:
+    if cfg.push_to_hub:  # a published root is only read, so other runs may open it meanwhile
         push_dataset(cfg.root, cfg.repo_id, private=cfg.private)
         summary.pushed = True
     summary.elapsed_s = time.perf_counter() - start
@@ -434,7 +501,7 @@ def main(argv: list[str] | None = None) -> int:
     cfg = _parse_args(argv)
     try:
         summary = collect_demos(cfg)
-    except ValueError as error:
+    except (ValueError, staging.CollectionError) as error:
         logger.error("%s", error)
         return 2
     except KeyboardInterrupt:

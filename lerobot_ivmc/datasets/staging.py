@@ -10,10 +10,13 @@ a staging folder inside the dataset root and treats the LeRobot dataset as a det
     <root>/.ivmc_collect/episodes/attempt_0000042.npz  one successful expert episode, written atomically
     <root>/.ivmc_collect/episodes/attempt_0000043.failed   an attempt the expert failed (skipped for good)
     <root>/.ivmc_collect/build/                        the LeRobotDataset being assembled (disposable)
+    <root>/.ivmc_collect/publish.json                  the build is final; these folders move into <root>
 
 Every staging file is written to a temporary name, fsynced and renamed, so it is either complete or absent.
 On restart the build folder is discarded and reassembled from the staged episodes; when all N episodes are
-assembled and finalized, the dataset's folders are moved into `<root>` and the staging folder is removed.
+assembled, finalized and verified, `publish.json` names the dataset's folders, they are moved into `<root>`
+and the staging folder is removed. A publish cut short is finished by the next run from `publish.json`, so
+a folder of `<root>` is only ever replaced or deleted when the collector itself put it there.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ import json
 import os
 import re
 import shutil
+import zipfile
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
@@ -34,11 +38,17 @@ TRASH_DIR = ".ivmc_collect.trash"
 SPEC_FILE = "spec.json"
 EPISODES_DIR = "episodes"
 BUILD_DIR = "build"
+# Written once the build is final: the dataset folders it moves into the root (see `publish`).
+PUBLISH_FILE = "publish.json"
 # Written into the finished dataset's meta/ folder (and pushed with it): task, split, seeds, attempts.
 COLLECTION_INFO_PATH = "meta/ivmc_collection.json"
 # Folders of a LeRobot dataset root (`images/` holds LeRobot's temporary PNGs).
 DATASET_DIRS = ("data", "videos", "meta")
 _ATTEMPT_RE = re.compile(r"^attempt_(\d{7})\.(npz|failed)$")
+
+
+class CollectionError(RuntimeError):
+    """A collection root the collector cannot use as it is; the message says what to do."""
 
 
 @dataclass
@@ -98,11 +108,22 @@ def write_failure(episodes_dir: Path, attempt: int) -> None:
 
 
 def read_episode(path: Path) -> StagedEpisode:
-    """Load a staged episode."""
-    with np.load(path) as data:
-        values = {f.name: data[f.name] for f in fields(StagedEpisode)}
-    for name in ("attempt", "scene_seed", "object_cell", "target_cell"):
-        values[name] = int(values[name])
+    """Load a staged episode.
+
+    Raises:
+        CollectionError: the file is damaged (staged files are written atomically, so only a failing disk
+            or another program can damage one); the message names it and how to drop it.
+    """
+    try:
+        with np.load(path) as data:
+            values = {f.name: data[f.name] for f in fields(StagedEpisode)}
+        for name in ("attempt", "scene_seed", "object_cell", "target_cell"):
+            values[name] = int(values[name])
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as error:
+        raise CollectionError(
+            f"The staged episode {path} is damaged ({type(error).__name__}: {error}). Delete it "
+            f"(rm '{path}') and rerun the same command: its attempt is recorded again."
+        ) from error
     return StagedEpisode(**values)
 
 
@@ -165,12 +186,32 @@ def remove_tree(path: Path) -> None:
 
 
 def publish(work_dir: Path, root: Path) -> None:
-    """Move the finalized build into `root` (meta/ last: its info.json marks a dataset), drop the staging.
+    """Move the finalized, verified build into `root` and drop the staging folder.
 
-    A kill during the moves leaves the staging folder in place, so the next run rebuilds and republishes.
+    `publish.json` records the folders to move before the first one moves, so a run killed during the moves
+    is finished by `finish_publish` on the next run instead of rebuilt: no folder of `root` that the
+    collector did not move there is ever replaced.
     """
     build = work_dir / BUILD_DIR
-    for name in DATASET_DIRS:
+    write_json(work_dir / PUBLISH_FILE, [name for name in DATASET_DIRS if (build / name).exists()])
+    finish_publish(work_dir, root)
+
+
+def publish_blockers(work_dir: Path, root: Path) -> list[Path]:
+    """Folders of `root` that a publish would have to replace: not moved there by the collector."""
+    build = work_dir / BUILD_DIR
+    names = read_json(work_dir / PUBLISH_FILE)
+    return [root / name for name in names if (build / name).exists() and (root / name).exists()]
+
+
+def finish_publish(work_dir: Path, root: Path) -> None:
+    """Move the folders `publish.json` names that are still in the build (meta/ last: its info.json marks
+    a dataset), then drop the staging folder. Each step can be repeated after a kill."""
+    blockers = publish_blockers(work_dir, root)
+    if blockers:
+        raise CollectionError(f"Cannot publish into {root}: {', '.join(map(str, blockers))} already exist.")
+    build = work_dir / BUILD_DIR
+    for name in read_json(work_dir / PUBLISH_FILE):
         if (build / name).exists():
             os.replace(build / name, root / name)
     trash = root / TRASH_DIR

@@ -229,23 +229,6 @@ def test_video_storage(tmp_path):
     assert dataset[DEMO_EPISODE_STEPS - 1][IMAGE_KEY].shape == (3, IMAGE_SIZE, IMAGE_SIZE)
 
 
-def test_publish_cut_short_is_rebuilt(tmp_path, monkeypatch):
-    cfg = _config(tmp_path / "ds")
-
-    def publish_then_die(work_dir: Path, root: Path) -> None:
-        os.replace(work_dir / staging.BUILD_DIR / "data", root / "data")
-        raise KeyboardInterrupt
-
-    monkeypatch.setattr(staging, "publish", publish_then_die)
-    with pytest.raises(KeyboardInterrupt):
-        collect_demos(cfg)
-    monkeypatch.undo()
-    summary = collect_demos(cfg)
-    assert summary.resumed_episodes == 2 and summary.attempts == 2
-    assert LeRobotDataset(cfg.repo_id, root=cfg.root).num_episodes == 2
-    assert not (cfg.root / staging.WORK_DIR).exists()
-
-
 def _staged(root: Path) -> int:
     episodes = root / staging.WORK_DIR / staging.EPISODES_DIR
     return len(list(episodes.glob("*.npz"))) if episodes.exists() else 0

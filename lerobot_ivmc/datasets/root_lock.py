@@ -1,0 +1,104 @@
+"""One writer per collection root: an OS-level lock on a file in the root that dies with its holder.
+
+`fcntl.flock` locks belong to the open file, so the kernel releases them when the holder exits or is
+killed (SIGKILL included): a killed collection never leaves a stale lock, and the next run takes it over.
+The lock file holds the holder's pid, host, start time and command, so a refused run can name it. The
+holder deletes the file before it lets the lock go; a run that locked a file which was deleted meanwhile
+tries again on the new one, so two runs never hold locks on two different files of one root.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import json
+import os
+import socket
+import sys
+import time
+from pathlib import Path
+
+from lerobot_ivmc.datasets.staging import CollectionError
+
+LOCK_FILE = ".ivmc_collect.lock"
+
+
+class RootLock:
+    """Exclusive, non-blocking lock of a collection root, as a context manager.
+
+    Args:
+        root: the dataset folder; created (with its parents) if missing.
+
+    Raises:
+        CollectionError: on entry, when `root` is a file or cannot be created, or another process holds
+            the lock (the message names it).
+    """
+
+    def __init__(self, root: Path):
+        self.root = Path(root)
+        self.path = self.root / LOCK_FILE
+        self._fd: int | None = None
+        self._created_root = False
+
+    def __enter__(self) -> RootLock:
+        if self.root.exists() and not self.root.is_dir():
+            raise CollectionError(
+                f"--root {self.root} is a file; give a folder (new, or one this command made)."
+            )
+        self._created_root = not self.root.exists()
+        try:
+            self.root.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            raise CollectionError(f"Cannot create the dataset folder {self.root}: {error}.") from error
+        while True:
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                os.close(fd)
+                raise CollectionError(
+                    f"{self.root} is being written by another collector ({_describe_holder(self.path)}). "
+                    "One collector writes a root at a time: wait for it to finish or stop it, then rerun."
+                ) from None
+            if _same_file(fd, self.path):
+                break
+            os.close(fd)  # the holder deleted that file as it finished: lock the current one
+        self._fd = fd
+        holder = {
+            "pid": os.getpid(),
+            "host": socket.gethostname(),
+            "started": time.strftime("%Y-%m-%d %H:%M:%S"),
+            "command": " ".join(sys.argv),
+        }
+        os.ftruncate(fd, 0)
+        os.write(fd, json.dumps(holder).encode())
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        if self._fd is None:
+            return
+        with contextlib.suppress(FileNotFoundError):
+            self.path.unlink()  # before the lock goes, so that no later run locks this file
+        os.close(self._fd)
+        self._fd = None
+        if self._created_root:
+            with contextlib.suppress(OSError):
+                self.root.rmdir()  # only if this run left it empty
+
+
+def _same_file(fd: int, path: Path) -> bool:
+    try:
+        on_disk = os.stat(path)
+    except FileNotFoundError:
+        return False
+    held = os.fstat(fd)
+    return (held.st_dev, held.st_ino) == (on_disk.st_dev, on_disk.st_ino)
+
+
+def _describe_holder(path: Path) -> str:
+    """The lock holder's pid, host, start time and command, as far as its lock file tells."""
+    try:
+        holder = json.loads(path.read_text())
+        return f"pid {holder['pid']} on {holder['host']}, started {holder['started']}: {holder['command']}"
+    except (OSError, ValueError, KeyError, TypeError):
+        return "pid unknown: it has only just started"
