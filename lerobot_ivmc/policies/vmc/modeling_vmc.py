@@ -266,3 +266,14 @@ class VMCPolicy(PreTrainedPolicy):
     def predict_action_chunk(self, batch: dict[str, Tensor], **kwargs) -> Tensor:
         """A chunk of one action, (B, 1, 4); advances the LSTM memory like `select_action`."""
         return self.select_action(batch)[:, None]
+
+    @classmethod
+    def _load_as_safetensor(
+        cls, model: VMCPolicy, model_file: str, map_location: str, strict: bool
+    ) -> VMCPolicy:
+        """Load the weights strictly, whatever `strict` says (LeRobot's default only warns about a missing
+        tensor and keeps its random weights): see `lerobot_ivmc.policies.checkpoint_checks`."""
+        from lerobot_ivmc.policies.checkpoint_checks import load_checkpoint_strictly
+
+        load_checkpoint_strictly(model, model_file, map_location)
+        return model
