@@ -1,0 +1,135 @@
+"""Does a checkpoint fit the env it is about to run in? And one-line errors for the plugin's CLIs.
+
+A checkpoint's `config.json` records the features it was trained on (`input_features`,
+`output_features`). `check_policy_matches_env` compares them with the features the env config produces,
+as LeRobot derives them (`env_to_policy_features`), before the first step: a 64-pixel policy on
+`--env.image_size=32` would otherwise fail with a tensor-size error deep inside the CNN, and a pixel policy
+on `--env.obs_type=state` with a `KeyError`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import sys
+from collections.abc import Iterator
+
+from draccus.utils import ParsingError
+from lerobot.configs.policies import PreTrainedConfig
+from lerobot.configs.types import FeatureType
+from lerobot.envs.configs import EnvConfig
+from lerobot.envs.utils import env_to_policy_features
+
+from lerobot_ivmc.datasets.staging import CollectionError
+from lerobot_ivmc.policies.checkpoint_checks import CheckpointError
+
+_PIXEL_OBS_TYPE = "pixels_agent_pos"
+
+
+class EnvMismatchError(ValueError):
+    """The env does not give what the policy was trained on; the message says which flag fixes it."""
+
+
+def _fix(env_cfg: EnvConfig, key: str, want: tuple[int, ...], visual: bool, provided: bool) -> str:
+    """The `--env.*` flag that makes `env_cfg` give feature `key` of shape `want`, if there is one."""
+    if not visual:
+        return ""
+    if not provided and getattr(env_cfg, "obs_type", _PIXEL_OBS_TYPE) != _PIXEL_OBS_TYPE:
+        flags = [f"--env.obs_type={_PIXEL_OBS_TYPE}"]
+        if hasattr(env_cfg, "image_size") and len(want) == 3 and want[1] == want[2] != env_cfg.image_size:
+            flags.append(f"--env.image_size={want[1]}")
+        return f"; pass {' '.join(flags)}"
+    if provided and hasattr(env_cfg, "image_size") and len(want) == 3 and want[1] == want[2]:
+        return f"; pass --env.image_size={want[1]}"
+    return ""
+
+
+def check_policy_matches_env(policy_cfg: PreTrainedConfig, env_cfg: EnvConfig) -> None:
+    """Refuse an env that does not give the observations (or take the actions) the policy was trained on.
+
+    Args:
+        policy_cfg: the checkpoint's config (`--policy.path`), with the features it was trained on.
+        env_cfg: the env it is about to run in.
+
+    Raises:
+        EnvMismatchError (a ValueError): naming each feature the policy expects and the env does not give
+            as expected, with the flag that fixes it where there is one (e.g. `--env.image_size=64`,
+            `--env.obs_type=pixels_agent_pos`).
+    """
+    given = env_to_policy_features(env_cfg)
+    problems = []
+    for key, feature in (policy_cfg.input_features or {}).items():
+        want, visual = tuple(feature.shape), feature.type is FeatureType.VISUAL
+        if key not in given:
+            obs_type = getattr(env_cfg, "obs_type", None)
+            problems.append(
+                f"the policy reads {key} of shape {want}, which this env does not give"
+                + (f" with obs_type={obs_type!r}" if obs_type is not None else "")
+                + _fix(env_cfg, key, want, visual, provided=False)
+            )
+        elif tuple(given[key].shape) != want:
+            problems.append(
+                f"the policy expects {key} of shape {want}, this env gives {tuple(given[key].shape)}"
+                + _fix(env_cfg, key, want, visual, provided=True)
+            )
+    for key, feature in (policy_cfg.output_features or {}).items():
+        if key in given and tuple(given[key].shape) != tuple(feature.shape):
+            problems.append(
+                f"the policy outputs {key} of shape {tuple(feature.shape)}, "
+                f"the env takes {tuple(given[key].shape)}"
+            )
+    if problems:
+        env_name = getattr(env_cfg, "type", type(env_cfg).__name__)
+        raise EnvMismatchError(
+            f"This {policy_cfg.type} checkpoint does not fit the {env_name} env: {'; '.join(problems)}."
+        )
+
+
+def _chain(error: BaseException) -> list[BaseException]:
+    chain, seen = [], set()
+    while error is not None and id(error) not in seen:
+        chain.append(error)
+        seen.add(id(error))
+        error = error.__cause__ or error.__context__
+    return chain
+
+
+def _raised_in_plugin(error: BaseException) -> bool:
+    traceback = error.__traceback__
+    if traceback is None:
+        return False
+    while traceback.tb_next is not None:
+        traceback = traceback.tb_next
+    return traceback.tb_frame.f_globals.get("__name__", "").startswith("lerobot_ivmc")
+
+
+def plugin_error_message(error: BaseException) -> str | None:
+    """The plugin's own one-line message for a user error, or None for anything else.
+
+    User errors are the plugin's refusals (`EnvMismatchError`, `CheckpointError`, `CollectionError`) and
+    a `ValueError` raised by a plugin config class (`IvmcEnv`, `VMCConfig`, ...) while draccus parsed the
+    command line, which draccus otherwise buries in a `ParsingError` traceback.
+    """
+    chain = _chain(error)
+    for link in chain:
+        if isinstance(link, EnvMismatchError | CheckpointError | CollectionError):
+            return " ".join(str(link).split())
+    if any(isinstance(link, ParsingError) for link in chain):
+        root = chain[-1]
+        if isinstance(root, ValueError) and _raised_in_plugin(root):
+            return " ".join(str(root).split())
+    return None
+
+
+@contextlib.contextmanager
+def one_line_errors(prog: str) -> Iterator[None]:
+    """Around a CLI's main: a user error (see `plugin_error_message`) ends it with one line,
+    ``<prog>: error: <message>`` on stderr, and exit status 2, as argparse does; any other error keeps its
+    traceback."""
+    try:
+        yield
+    except Exception as error:
+        message = plugin_error_message(error)
+        if message is None:
+            raise
+        print(f"{prog}: error: {message}", file=sys.stderr)
+        raise SystemExit(2) from None
