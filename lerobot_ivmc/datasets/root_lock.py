@@ -51,7 +51,10 @@ class RootLock:
         except OSError as error:
             raise CollectionError(f"Cannot create the dataset folder {self.root}: {error}.") from error
         while True:
-            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            try:
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            except OSError as error:
+                raise CollectionError(f"Cannot write the lock file {self.path}: {error}.") from error
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
