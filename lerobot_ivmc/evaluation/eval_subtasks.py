@@ -1,16 +1,19 @@
-"""`lerobot-ivmc-eval`: `lerobot-eval` for the ivmc tasks, reporting the paper's subtask success too.
+"""`lerobot-ivmc-eval`: `lerobot-eval` for the ivmc tasks, with subtask milestones and failure recovery.
 
-It parses the same arguments as `lerobot-eval` and runs LeRobot's own `eval_policy` (rollout, seeding,
-videos); the only difference is a wrapper on each sub-env that keeps the episode's milestones, which are
-added to `eval_info.json` as `subtasks` (per episode) and `aggregated_subtasks` (rates with standard errors).
+It parses the same arguments as `lerobot-eval` plus `--recovery.*` and runs LeRobot's own `eval_policy`
+(rollout, seeding, videos). A wrapper on each sub-env keeps the episode's milestones, added to
+`eval_info.json` as `subtasks` (per episode) and `aggregated_subtasks` (rates with standard errors). A
+`bvmc` policy runs inside `IntrospectiveController` (Algorithm 1), which also records per-step
+uncertainty traces (`uncertainty_traces.npz`), the recovery events and u of every episode, the paper's
+Fig. 3 (`uncertainty_vs_success.png`) and videos of recoveries (`recovery_videos/`).
 
-    lerobot-ivmc-eval --policy.path=outputs/train/bvmc/checkpoints/last/pretrained_model \\
-        --env.type=ivmc --env.task=pick_place --eval.n_episodes=50 --eval.batch_size=10 --seed=0
+    lerobot-ivmc-eval --policy.path=<bvmc checkpoint with foresight and threshold> --env.type=ivmc \\
+        --env.task=pick_place --eval.n_episodes=100 --eval.batch_size=10 --seed=0 --recovery.mode=min_unc
 """
 
 import json
 import logging
-from dataclasses import asdict
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from pprint import pformat
 
@@ -18,98 +21,243 @@ import gymnasium as gym
 import torch
 from lerobot.configs import parser
 from lerobot.configs.eval import EvalPipelineConfig
-from lerobot.envs.factory import make_env_pre_post_processors
-from lerobot.policies.factory import make_policy, make_pre_post_processors
 from lerobot.scripts.lerobot_eval import eval_policy
+from lerobot.utils.constants import OBS_ENV_STATE
 from lerobot.utils.import_utils import register_third_party_plugins
 from lerobot.utils.random_utils import set_seed
 
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
+from lerobot_ivmc.evaluation.fig3 import plot_success_by_uncertainty, success_by_uncertainty_bins
+from lerobot_ivmc.evaluation.loading import load_policy
 from lerobot_ivmc.evaluation.metrics import aggregate_milestones
 from lerobot_ivmc.evaluation.milestone_recorder import MilestoneRecorder
+from lerobot_ivmc.evaluation.recovery_videos import (
+    FrameRecorder,
+    RecoveryVideoStore,
+    recovery_phase_summary,
+    write_recovery_video,
+)
+from lerobot_ivmc.evaluation.traces import TRACES_FILE, episode_traces, save_traces
+from lerobot_ivmc.recovery.config import RecoveryConfig
+from lerobot_ivmc.recovery.controller import IntrospectiveController
+from lerobot_ivmc.recovery.threshold import ThresholdRecord, resolve_threshold
+from lerobot_ivmc.scripts.errors import run_cli
 
 logger = logging.getLogger(__name__)
 
+EVAL_INFO_FILE = "eval_info.json"
+FIG3_FILE = "uncertainty_vs_success.png"
 
-def make_recorded_vector_env(env_cfg: IvmcEnv, n_envs: int) -> gym.vector.SyncVectorEnv:
-    """The vector env LeRobot's `make_env` would build, with a `MilestoneRecorder` on each sub-env."""
 
-    def make_one() -> gym.Env:
-        return MilestoneRecorder(gym.make(env_cfg.gym_id, disable_env_checker=True, **env_cfg.gym_kwargs))
+@dataclass
+class IvmcEvalConfig(EvalPipelineConfig):
+    """`lerobot-eval`'s config plus the recovery settings (`--recovery.mode=min_unc`, ...)."""
+
+    recovery: RecoveryConfig = field(default_factory=RecoveryConfig)
+
+
+def make_recorded_vector_env(
+    env_cfg: IvmcEnv, n_envs: int, video_store: RecoveryVideoStore | None = None
+) -> gym.vector.SyncVectorEnv:
+    """The vector env LeRobot's `make_env` would build, with a `MilestoneRecorder` on each sub-env (and a
+    `FrameRecorder` when recovery videos are wanted)."""
+
+    def make_one(index: int) -> gym.Env:
+        env = gym.make(env_cfg.gym_id, disable_env_checker=True, **env_cfg.gym_kwargs)
+        if video_store is not None:
+            env = FrameRecorder(env, index, video_store)
+        return MilestoneRecorder(env)
 
     return gym.vector.SyncVectorEnv(
-        [make_one for _ in range(n_envs)], autoreset_mode=gym.vector.AutoresetMode.SAME_STEP
+        [lambda i=i: make_one(i) for i in range(n_envs)], autoreset_mode=gym.vector.AutoresetMode.SAME_STEP
     )
 
 
-def collect_episode_milestones(env: gym.vector.SyncVectorEnv, n_episodes: int) -> list[dict[str, bool]]:
-    """Milestones of the evaluated episodes in `eval_policy`'s order (batch-major, then sub-env)."""
-    per_env = env.get_attr("episode_milestones")
+def collect_per_env(env: gym.vector.SyncVectorEnv, name: str) -> list[list]:
+    """A recorder attribute (list per seeded episode) of every sub-env."""
+    return env.get_attr(name)
+
+
+def episode_order(per_env: list[list], n_episodes: int) -> list:
+    """Per-env records in `eval_policy`'s episode order (batch-major, then sub-env)."""
     n_batches = len(per_env[0])
     episodes = [per_env[j][b] for b in range(n_batches) for j in range(len(per_env))]
     return episodes[:n_episodes]
 
 
-def evaluate(cfg: EvalPipelineConfig) -> dict:
-    """Evaluate `cfg.policy` on `cfg.env`; write and return the eval info with subtask metrics."""
+def collect_episode_milestones(env: gym.vector.SyncVectorEnv, n_episodes: int) -> list[dict[str, bool]]:
+    """Milestones of the evaluated episodes in `eval_policy`'s order (batch-major, then sub-env)."""
+    return episode_order(collect_per_env(env, "episode_milestones"), n_episodes)
+
+
+def env_state_stats(preprocessor) -> tuple[torch.Tensor, torch.Tensor]:
+    """(mean, std) of `observation.environment_state` from the policy's normaliser step."""
+    for step in preprocessor.steps:
+        stats = getattr(step, "_tensor_stats", None) or {}
+        if OBS_ENV_STATE in stats:
+            mean = stats[OBS_ENV_STATE]["mean"].float().cpu()
+            return mean, stats[OBS_ENV_STATE]["std"].float().cpu() + step.eps
+    raise ValueError(
+        f"The policy's preprocessor has no statistics for {OBS_ENV_STATE!r}: recovery reads the grip "
+        "position from it. Evaluate a checkpoint saved by lerobot-train (it stores the processors)."
+    )
+
+
+def check_recovery_request(cfg: IvmcEvalConfig) -> None:
+    """Refuse recovery for a policy type without uncertainty before anything is built."""
+    if cfg.policy is None:
+        raise ValueError("Pass --policy.path=<checkpoint folder>.")
+    if cfg.recovery.mode != "none" and cfg.policy.type != "bvmc":
+        raise ValueError(
+            f"--recovery.mode={cfg.recovery.mode} needs a bvmc checkpoint (Monte Carlo uncertainty); "
+            f"{cfg.policy.pretrained_path} is a {cfg.policy.type!r} policy. Use --recovery.mode=none."
+        )
+
+
+def evaluate(cfg: IvmcEvalConfig, ignore_stored_threshold: bool = False) -> dict:
+    """Evaluate `cfg.policy` on `cfg.env`; write and return the eval info with subtask and recovery data.
+
+    `ignore_stored_threshold` skips the checkpoint's `recovery_threshold.json` (to pick a new one).
+    """
     if not isinstance(cfg.env, IvmcEnv):
         raise ValueError(
             f"lerobot-ivmc-eval evaluates --env.type=ivmc, got {cfg.env.type!r}; use lerobot-eval."
         )
     if cfg.seed is None:
         raise ValueError("Pass --seed: episodes are matched to their subtask records through seeded resets.")
+    check_recovery_request(cfg)
+    output_dir = Path(cfg.output_dir)
+    if (output_dir / EVAL_INFO_FILE).exists():
+        raise FileExistsError(
+            f"{output_dir / EVAL_INFO_FILE} exists: pass another --output_dir (results are never "
+            "overwritten)."
+        )
+    is_bayesian = cfg.policy.type == "bvmc"
+    threshold, window, source = None, 0, "none"
+    if is_bayesian:
+        path = cfg.policy.pretrained_path
+        record = ThresholdRecord.load(path) if path and not ignore_stored_threshold else None
+        threshold, window, source = resolve_threshold(
+            cfg.recovery.mode, cfg.recovery.threshold, cfg.recovery.window, record, cfg.env.task
+        )
     logger.info(pformat(asdict(cfg)))
     set_seed(cfg.seed)
-    env = make_recorded_vector_env(cfg.env, cfg.eval.batch_size)
-    policy = make_policy(cfg=cfg.policy, env_cfg=cfg.env, rename_map=cfg.rename_map)
-    policy.eval()
-    preprocessor, postprocessor = make_pre_post_processors(
-        policy_cfg=cfg.policy,
-        pretrained_path=cfg.policy.pretrained_path,
-        preprocessor_overrides={
-            "device_processor": {"device": str(policy.config.device)},
-            "rename_observations_processor": {"rename_map": cfg.rename_map},
-        },
-    )
-    env_preprocessor, env_postprocessor = make_env_pre_post_processors(env_cfg=cfg.env, policy_cfg=cfg.policy)
-    output_dir = Path(cfg.output_dir)
+    wants_videos = is_bayesian and cfg.recovery.mode != "none" and cfg.recovery.max_videos > 0
+    video_store = RecoveryVideoStore(cfg.recovery.max_videos) if wants_videos else None
+    env = make_recorded_vector_env(cfg.env, cfg.eval.batch_size, video_store)
+    loaded = load_policy(cfg)
+    policy = loaded.policy
+    controller = None
+    if is_bayesian:
+        controller = IntrospectiveController(
+            policy, cfg.recovery, threshold, window, env_state_stats(loaded.preprocessor), seed=cfg.seed
+        )
+        if video_store is not None:
+            video_store.had_recovery = lambda j, b: bool(controller.traces[b].events[j])
     with torch.no_grad():
         info = eval_policy(
             env,
-            policy,
-            env_preprocessor,
-            env_postprocessor,
-            preprocessor,
-            postprocessor,
+            controller if controller is not None else policy,
+            *loaded.processors,
             n_episodes=cfg.eval.n_episodes,
             max_episodes_rendered=10,
             videos_dir=output_dir / "videos",
             start_seed=cfg.seed,
         )
-    milestones = collect_episode_milestones(env, cfg.eval.n_episodes)
+    n = cfg.eval.n_episodes
+    milestones = collect_episode_milestones(env, n)
+    lengths_per_env = collect_per_env(env, "episode_lengths")
     env.close()
     for episode, flags in zip(info["per_episode"], milestones, strict=True):
         episode["subtasks"] = flags
     info["aggregated_subtasks"] = aggregate_milestones(milestones)
     output_dir.mkdir(parents=True, exist_ok=True)
-    (output_dir / "eval_info.json").write_text(json.dumps(info, indent=2))
+    if controller is not None:
+        episodes = episode_traces(controller.traces, lengths_per_env, n, window)
+        add_recovery_results(info, episodes, cfg, threshold, window, source, output_dir)
+        if video_store is not None:
+            info["recovery"]["videos"] = write_videos(
+                video_store, controller, lengths_per_env, cfg, threshold
+            )
+    (output_dir / EVAL_INFO_FILE).write_text(json.dumps(info, indent=2))
     return info
 
 
+def add_recovery_results(
+    info: dict,
+    episodes: list[dict],
+    cfg: IvmcEvalConfig,
+    threshold: float | None,
+    window: int,
+    source: str,
+    output_dir: Path,
+) -> None:
+    """Per-episode u and recovery events, the recovery summary, the traces file and the Fig. 3 plot."""
+    successes = [bool(e["success"]) for e in info["per_episode"]]
+    for record, episode in zip(info["per_episode"], episodes, strict=True):
+        record["max_uncertainty"] = episode["max_uncertainty"]
+        record["recoveries"] = episode["events"]
+        record["recovery_steps"] = recovery_phase_summary(episode)
+    save_traces(output_dir / TRACES_FILE, episodes, [e["seed"] for e in info["per_episode"]])
+    scores = [e["max_uncertainty"] for e in episodes]
+    binned = success_by_uncertainty_bins(scores, successes)
+    title = f"{cfg.env.task}, {cfg.policy.type} #fc={cfg.policy.num_fc_layers}, recovery={cfg.recovery.mode}"
+    plot_success_by_uncertainty(binned, output_dir / FIG3_FILE, title)
+    info["uncertainty_vs_success"] = {**binned, "plot": FIG3_FILE}
+    info["recovery"] = {
+        "mode": cfg.recovery.mode,
+        "threshold": threshold,
+        "threshold_source": source,
+        "window": window,
+        "settings": asdict(cfg.recovery),
+        "num_recoveries": sum(len(e["events"]) for e in episodes),
+        "episodes_with_recovery": sum(bool(e["events"]) for e in episodes),
+        "traces": TRACES_FILE,
+    }
+
+
+def write_videos(
+    store: RecoveryVideoStore,
+    controller: IntrospectiveController,
+    lengths_per_env: list[list[int]],
+    cfg: IvmcEvalConfig,
+    threshold: float | None,
+) -> list[str]:
+    """Write the kept recovery episodes as mp4s with their traces; return the paths."""
+    paths = []
+    batch_size = len(lengths_per_env)
+    for (j, b), frames in sorted(store.kept.items(), key=lambda item: (item[0][1], item[0][0])):
+        episode_index = b * batch_size + j
+        if episode_index >= cfg.eval.n_episodes:
+            continue
+        episode = controller.traces[b].episode(j, lengths_per_env[j][b])
+        path = Path(cfg.output_dir) / "recovery_videos" / f"episode_{episode_index:04d}.mp4"
+        write_recovery_video(path, frames, episode, float(threshold), cfg.env.fps)
+        paths.append(str(path))
+    return paths
+
+
 @parser.wrap()
-def eval_main(cfg: EvalPipelineConfig) -> dict:
+def eval_main(cfg: IvmcEvalConfig) -> dict:
     info = evaluate(cfg)
     print(f"{cfg.env.task}: {cfg.eval.n_episodes} episodes on {cfg.env.split} scenes (seeds {cfg.seed}..)")
     for name, rate in info["aggregated_subtasks"].items():
         print(f"  {name:<6} {rate['pc']:6.2f} +- {rate['stderr']:.2f} %")
-    print(f"Eval info: {Path(cfg.output_dir) / 'eval_info.json'}")
+    if "recovery" in info:
+        rec = info["recovery"]
+        print(
+            f"  recovery={rec['mode']} threshold={rec['threshold']} ({rec['threshold_source']}), "
+            f"{rec['num_recoveries']} recoveries in {rec['episodes_with_recovery']} episodes; "
+            f"Spearman rho (Fig. 3) {info['uncertainty_vs_success']['spearman_rho']:.2f}"
+        )
+    print(f"Eval info: {Path(cfg.output_dir) / EVAL_INFO_FILE}")
     return info
 
 
 def main() -> None:
     logging.basicConfig(level=logging.INFO)
     register_third_party_plugins()
-    eval_main()
+    run_cli(eval_main)
 
 
 if __name__ == "__main__":

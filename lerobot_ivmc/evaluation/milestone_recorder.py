@@ -14,11 +14,13 @@ import gymnasium as gym
 
 
 class MilestoneRecorder(gym.Wrapper):
-    """Wraps an ivmc task env; `episode_milestones[k]` holds the milestones of the k-th seeded episode."""
+    """Wraps an ivmc task env; `episode_milestones[k]` and `episode_lengths[k]` describe its k-th seeded
+    episode (its milestones, and the steps it lasted)."""
 
     def __init__(self, env: gym.Env):
         super().__init__(env)
         self.episode_milestones: list[dict[str, bool]] = []
+        self.episode_lengths: list[int] = []
         self._recording = False
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -26,11 +28,13 @@ class MilestoneRecorder(gym.Wrapper):
         self._recording = seed is not None
         if self._recording:
             self.episode_milestones.append(dict(info["subtasks"]))
+            self.episode_lengths.append(0)
         return observation, info
 
     def step(self, action):
         observation, reward, terminated, truncated, info = self.env.step(action)
         if self._recording:
             self.episode_milestones[-1] = dict(info["subtasks"])
+            self.episode_lengths[-1] += 1
             self._recording = not (terminated or truncated)
         return observation, reward, terminated, truncated, info

@@ -101,7 +101,8 @@ def test_window_rollout_memory_sees_exactly_the_training_window() -> None:
         )
         e_train = policy.net.unroll(s[:, max(0, t - 3) : t + 1])
         torch.testing.assert_close(e_roll, e_train)
-    assert len(policy.get_memory()) == 4
+    frames, is_pad = policy.get_memory()
+    assert frames.shape[1] == 4 and not is_pad.any()
     with pytest.raises(ValueError, match="rollout_memory"):
         make_config(VMCConfig, rollout_memory="episode")
 

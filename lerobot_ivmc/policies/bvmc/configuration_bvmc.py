@@ -30,6 +30,10 @@ class BVMCConfig(VMCConfig):
         num_samples: S, Monte Carlo samples per step (the paper: 50, where the sampled error converges).
         uncertainty_lambda: lambda of Eq. (weighted-concat), weight of the command's norm against its
             direction. The paper tunes it without giving a value; 0.5 weighs both equally.
+        foresight_enabled: the checkpoint holds an uncertainty foresight head (the paper's Fig. 2, orange),
+            trained by `lerobot-ivmc-foresight` after the policy; False for a freshly trained policy.
+        foresight_hidden_dim: width of the hidden layer of the foresight head's two fully connected layers
+            (the paper says only "small"; 64 is half the LSTM width).
     """
 
     # Concrete dropout (training).
@@ -42,6 +46,10 @@ class BVMCConfig(VMCConfig):
     mc_sampling: bool = True
     num_samples: int = 50
     uncertainty_lambda: float = 0.5
+
+    # Uncertainty foresight (trained by distillation after the policy: `lerobot-ivmc-foresight`).
+    foresight_enabled: bool = False
+    foresight_hidden_dim: int = 64
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -59,3 +67,5 @@ class BVMCConfig(VMCConfig):
             )
         if not 0.0 <= self.uncertainty_lambda <= 1.0:
             raise ValueError(f"uncertainty_lambda must lie in [0, 1], got {self.uncertainty_lambda}.")
+        if self.foresight_hidden_dim <= 0:
+            raise ValueError(f"foresight_hidden_dim must be positive, got {self.foresight_hidden_dim}.")

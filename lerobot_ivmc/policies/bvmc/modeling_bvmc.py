@@ -15,7 +15,9 @@ from torch import Tensor, nn
 
 from lerobot_ivmc.policies.bvmc.concrete_dropout import ConcreteDropoutHead
 from lerobot_ivmc.policies.bvmc.configuration_bvmc import DEFAULT_DATASET_SIZE, BVMCConfig
+from lerobot_ivmc.policies.bvmc.foresight import UncertaintyForesight, from_log_uncertainty
 from lerobot_ivmc.policies.bvmc.uncertainty import trace_cov_uncertainty
+from lerobot_ivmc.policies.vmc.configuration_vmc import ACTION_DIM
 from lerobot_ivmc.policies.vmc.modeling_vmc import VMCPolicy, gripper_commands
 
 logger = logging.getLogger(__name__)
@@ -65,6 +67,37 @@ class BVMCPolicy(VMCPolicy):
     def __init__(self, config: BVMCConfig, dataset_meta=None, **kwargs):
         super().__init__(config, dataset_meta=dataset_meta, **kwargs)
         self.mc_sampling = config.mc_sampling
+        self.foresight: UncertaintyForesight | None = None
+        if config.foresight_enabled:
+            self.attach_foresight()
+
+    def attach_foresight(self) -> UncertaintyForesight:
+        """Add an (untrained) uncertainty foresight head and mark it in the config, so checkpoints keep it."""
+        self.config.foresight_enabled = True
+        self.foresight = UncertaintyForesight(
+            self.config.lstm_dim, ACTION_DIM, self.config.foresight_hidden_dim
+        ).to(self.net.decoder.weight.device)
+        return self.foresight
+
+    @torch.no_grad()
+    def foresee(self, embedding: Tensor, actions: Tensor) -> Tensor:
+        """Foreseen uncertainty of the next step after each candidate action.
+
+        Args:
+            embedding: (B, lstm_dim) LSTM embedding e_t.
+            actions: (B, S, 4) candidate actions (delta EE and gripper command).
+
+        Returns:
+            (B, S) predicted uncertainty at t + 1.
+        """
+        if self.foresight is None:
+            raise ValueError(
+                "This bvmc checkpoint has no uncertainty foresight head: train one with "
+                "`lerobot-ivmc-foresight --policy.path=<this checkpoint> ...` and use the checkpoint it "
+                "writes."
+            )
+        expanded = embedding[:, None].expand(-1, actions.shape[1], -1)
+        return from_log_uncertainty(self.foresight(expanded, actions))
 
     def _make_head(self, config: BVMCConfig, dataset_meta=None) -> nn.Module:
         if config.dataset_size is None:

@@ -179,7 +179,9 @@ class VMCPolicy(PreTrainedPolicy):
         """A copy of the rollout memory, or None before the first step.
 
         With `rollout_memory="trajectory"` it is the LSTM state (h, c), each (B, lstm_dim); with "window" the
-        state representations of the last (up to) K frames, each (B, D_s).
+        state representations of the last K frames (B, K, D_s) and their padding mask (B, K), True for the
+        slots before the episode's first frame. Every tensor has the rollouts on its first axis, so a
+        recovery can save or restore the memory of one rollout of a batch (`memory_rows`).
         """
         return None if self._memory is None else tuple(t.clone() for t in self._memory)
 
@@ -249,10 +251,25 @@ class VMCPolicy(PreTrainedPolicy):
             raise ValueError(f"Memory holds {memory[0].shape[0]} rollouts but the batch {images.shape[0]}.")
         s = self.net.encode(images, state)
         if self.config.rollout_memory == "window":
-            self._memory = ((*memory, s) if memory is not None else (s,))[-self.config.n_obs_steps :]
-            return self.net.unroll(torch.stack(self._memory, dim=1))
+            frames, is_pad = self.initial_memory(s.shape[0]) if memory is None else memory
+            frames = torch.cat([frames[:, 1:], s[:, None]], dim=1)
+            is_pad = torch.cat([is_pad[:, 1:], is_pad.new_zeros(is_pad.shape[0], 1)], dim=1)
+            self._memory = (frames, is_pad)
+            return self.net.unroll(frames, is_pad)
         self._memory = self.net.step(s, memory)
         return self._memory[0]
+
+    def initial_memory(self, batch_size: int) -> Memory:
+        """The memory right after `reset()`, as a tensor tuple (what a rollout's memory is reset to)."""
+        weight = self.net.decoder.weight
+        if self.config.rollout_memory == "window":
+            size = self.net.lstm.input_size
+            frames = weight.new_zeros(batch_size, self.config.n_obs_steps, size)
+            return frames, torch.ones(
+                batch_size, self.config.n_obs_steps, dtype=torch.bool, device=weight.device
+            )
+        h = weight.new_zeros(batch_size, self.net.lstm.hidden_size)
+        return h, h.clone()
 
     @torch.no_grad()
     def select_action(self, batch: dict[str, Tensor], **kwargs) -> Tensor:

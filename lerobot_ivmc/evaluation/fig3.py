@@ -1,0 +1,71 @@
+"""The paper's Fig. 3: task success against maximum uncertainty, episodes sorted by u in 10 bins."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from scipy import stats
+
+
+def success_by_uncertainty_bins(
+    scores: Sequence[float], successes: Sequence[bool], num_bins: int = 10
+) -> dict:
+    """Sort episodes by u, split them into `num_bins` bins of (nearly) equal size, and per bin give the
+    mean u and the task success rate; Spearman's rho between the two over the bins.
+
+    Returns:
+        {"mean_u", "success_rate", "count"} lists per bin, "spearman_rho" and "spearman_p" (NaN when
+        either is constant), "num_episodes".
+    """
+    u = np.asarray(scores, dtype=np.float64)
+    ok = np.asarray(successes, dtype=np.float64)
+    if u.shape != ok.shape or len(u) == 0:
+        raise ValueError(f"Need one success flag per score, got {u.shape} and {ok.shape}.")
+    bins = [b for b in np.array_split(np.argsort(u, kind="stable"), min(num_bins, len(u))) if len(b)]
+    mean_u = [float(u[b].mean()) for b in bins]
+    rate = [float(ok[b].mean()) for b in bins]
+    rho, p = (np.nan, np.nan)
+    if len(bins) > 2 and np.ptp(mean_u) > 0 and np.ptp(rate) > 0:
+        result = stats.spearmanr(mean_u, rate)
+        rho, p = float(result.statistic), float(result.pvalue)
+    return {
+        "mean_u": mean_u,
+        "success_rate": rate,
+        "count": [len(b) for b in bins],
+        "spearman_rho": rho,
+        "spearman_p": p,
+        "num_episodes": len(u),
+    }
+
+
+def plot_success_by_uncertainty(binned: dict, path: Path, title: str) -> Path:
+    """Write the Fig. 3 plot (PNG) of `success_by_uncertainty_bins`'s output."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(4.5, 3.4), dpi=120)
+    ax.plot(binned["mean_u"], np.asarray(binned["success_rate"]) * 100, "o-", color="tab:red")
+    ax.set_xlabel("maximum uncertainty u (bin mean)")
+    ax.set_ylabel("task success [%]")
+    ax.set_ylim(-5, 105)
+    ax.set_title(title, fontsize=9)
+    rho = binned["spearman_rho"]
+    ax.text(
+        0.97,
+        0.95,
+        f"Spearman rho = {rho:.2f}\n{binned['num_episodes']} episodes, {len(binned['count'])} bins",
+        transform=ax.transAxes,
+        ha="right",
+        va="top",
+        fontsize=8,
+    )
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+    return path

@@ -1,0 +1,12 @@
+"""Introspection and recovery (the paper's Section "Recovery from Failures" and Algorithm 1).
+
+- `threshold`: the paper's u (maximum sliding-window sum of step uncertainties) and its threshold pick.
+- `trigger`: when to recover (window sum over the threshold, exponential backoff of the interval).
+- `manoeuvres`: the recovery motions of `min_unc`, `rand` and `init`.
+- `controller`: a LeRobot policy that runs Bayesian VMC with Algorithm 1 inside LeRobot's rollout.
+- `foresight_data`, `foresight_training`: distillation of the uncertainty foresight head.
+"""
+
+from lerobot_ivmc.recovery.config import RECOVERY_MODES, RecoveryConfig
+
+__all__ = ["RECOVERY_MODES", "RecoveryConfig"]

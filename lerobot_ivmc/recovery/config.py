@@ -1,0 +1,75 @@
+"""Settings of the recovery loop (Algorithm 1) and its three recovery modes."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+# none: Bayesian VMC without recovery; min_unc: the paper's back-track and minimum-uncertainty recovery;
+# rand and init: the paper's baselines ("Baselines for Visuomotor Control Recovery").
+RECOVERY_MODES = ("none", "rand", "init", "min_unc")
+
+
+@dataclass
+class RecoveryConfig:
+    """How a Bayesian VMC rollout detects trouble and recovers (`--recovery.<field>=` on the eval CLI).
+
+    Args:
+        mode: "none", "rand", "init" or "min_unc".
+        threshold: C, the window-sum threshold. None: read from the checkpoint's `recovery_threshold.json`
+            (written by `lerobot-ivmc-threshold`); a value given here wins.
+        window: steps in the sliding window of uncertainties (the paper: 20, "best avoids noisy peaks").
+            None: the window the threshold was picked with (else 20). A threshold is only meaningful for
+            the window it was picked with, so another value is refused.
+        initial_interval: T_recovery at the start of an episode, in steps; doubled at every recovery
+            (binary exponential backoff). The paper leaves it open; 20 = one window, so no recovery fires
+            before a full window of evidence, and a second one needs at least 40 more steps.
+        reset_window_after_recovery: clear the window sum when a recovery starts and add no uncertainty
+            during it, so the next trigger is decided on steps after the recovery only. The paper is
+            silent; without it the high uncertainties that fired the trigger keep the sum above C.
+        recovery_steps: the paper's maximum of 25 recovery steps: min_unc's steps of following the
+            minimum foreseen uncertainty (after the back-track), rand's random moves, init's move budget.
+        backtrack_horizon: size of min_unc's FIFO of (uncertainty, memory, end-effector position, step),
+            the steps it may back-track over (the paper: 20); also the most steps a back-track may take.
+        backtrack_tolerance: the back-track ends when the grip point is this close (metres) to the point of
+            minimum uncertainty (or after `backtrack_horizon` steps).
+        rand_step_scale: rand's moves are uniform in [-scale, scale] action units per axis (1 unit = 5 cm).
+            The paper gives no size; 0.5 (up to 2.5 cm a step, about 7 cm of drift over 25 steps) leaves
+            the scene in view and the object within reach.
+        init_sphere_radius: init's target is uniform in a ball of this radius (metres) around the grip
+            point's position at the start of the episode, the arm's initial pose above the table. The paper
+            says only "a sphere above the table".
+        move_tolerance: init's move ends when the grip point is this close (metres) to its target.
+        max_videos: at most this many videos of episodes with a recovery, the uncertainty trace drawn under
+            the frames (frames are rendered for every episode until they are found; 0 disables).
+    """
+
+    mode: str = "none"
+    threshold: float | None = None
+    window: int | None = None
+    initial_interval: int = 20
+    reset_window_after_recovery: bool = True
+    recovery_steps: int = 25
+    backtrack_horizon: int = 20
+    backtrack_tolerance: float = 0.01
+    rand_step_scale: float = 0.5
+    init_sphere_radius: float = 0.1
+    move_tolerance: float = 0.01
+    max_videos: int = 4
+
+    def __post_init__(self) -> None:
+        if self.mode not in RECOVERY_MODES:
+            raise ValueError(f"--recovery.mode must be one of {RECOVERY_MODES}, got {self.mode!r}.")
+        if self.window is not None and self.window < 1:
+            raise ValueError(f"--recovery.window must be >= 1 step, got {self.window}.")
+        for name in ("initial_interval", "recovery_steps", "backtrack_horizon", "max_videos"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"--recovery.{name} must be >= 0, got {getattr(self, name)}.")
+        if self.backtrack_horizon < 1 or self.recovery_steps < 1:
+            raise ValueError("--recovery.backtrack_horizon and --recovery.recovery_steps must be >= 1.")
+        for name in ("backtrack_tolerance", "rand_step_scale", "init_sphere_radius", "move_tolerance"):
+            if getattr(self, name) <= 0:
+                raise ValueError(f"--recovery.{name} must be positive, got {getattr(self, name)}.")
+        if self.rand_step_scale > 1:
+            raise ValueError(
+                f"--recovery.rand_step_scale is in action units, at most 1; got {self.rand_step_scale}."
+            )

@@ -1,0 +1,151 @@
+"""The recovery motions: min_unc's back-track and minimum-uncertainty steps, rand's random moves, init's move.
+
+Each is a small state machine for one rollout of a batch. At the start of every step the controller calls
+`advance` with the grip point's position (it may end the manoeuvre and ask for a memory change); after the
+policy's Monte Carlo pass it calls `act` for the action. Positions are world coordinates in metres.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from torch import Tensor
+
+from lerobot_ivmc.envs.fetch_env import GRIPPER_NOOP, GRIPPER_OPEN, POSITION_SCALE
+
+# Phases recorded per step in the traces.
+NORMAL, BACKTRACK, FOLLOW_MIN_UNC, RANDOM_MOVES, MOVE_TO_INIT = range(5)
+PHASE_NAMES = ("normal", "backtrack", "follow_min_unc", "rand", "init")
+
+
+def move_towards(grip: np.ndarray, target: np.ndarray, gripper: int = GRIPPER_NOOP) -> np.ndarray:
+    """A delta-EE action (4,) that moves the grip point as far toward `target` as one step allows."""
+    delta = np.clip((target - grip) / POSITION_SCALE, -1.0, 1.0)
+    return np.array([*delta, gripper], dtype=np.float32)
+
+
+@dataclass
+class FifoEntry:
+    """One normal step in min_unc's back-track FIFO.
+
+    Attributes:
+        uncertainty: the step's uncertainty.
+        memory: the rollout's policy memory before the step (its row of each memory tensor).
+        grip: the grip point's position at the step, (3,).
+        step: the step's index in the episode.
+    """
+
+    uncertainty: float
+    memory: tuple[Tensor, ...]
+    grip: np.ndarray
+    step: int
+
+
+@dataclass
+class MemoryChange:
+    """What a manoeuvre asks of the policy memory: restore `memory` (a row), or reset it when None."""
+
+    memory: tuple[Tensor, ...] | None
+
+
+class Manoeuvre:
+    """Base class: `phase` for the traces, `finished` once over."""
+
+    phase: int = NORMAL
+    finished: bool = False
+
+    def advance(self, grip: np.ndarray) -> MemoryChange | None:
+        raise NotImplementedError
+
+    def act(self, grip: np.ndarray, min_unc_action: Callable[[], np.ndarray]) -> np.ndarray:
+        raise NotImplementedError
+
+
+class BacktrackThenFollow(Manoeuvre):
+    """min_unc: move back to the FIFO's point of minimum uncertainty, restore the memory saved there, then
+    for `steps` steps execute the sampled action of lowest foreseen uncertainty.
+
+    Args:
+        fifo: the last normal steps, oldest first.
+        steps: steps of following the minimum foreseen uncertainty.
+        horizon: most steps the back-track may take.
+        tolerance: the back-track ends this close (metres) to the target.
+    """
+
+    def __init__(self, fifo: list[FifoEntry], steps: int, horizon: int, tolerance: float):
+        if not fifo:
+            raise ValueError("Back-tracking needs at least one step in the FIFO.")
+        self.target = min(fifo, key=lambda entry: entry.uncertainty)
+        self.phase = BACKTRACK
+        self.steps_left = steps
+        self.backtrack_steps_left = horizon
+        self.tolerance = tolerance
+        self.finished = False
+
+    def advance(self, grip: np.ndarray) -> MemoryChange | None:
+        if self.phase == BACKTRACK and (
+            np.linalg.norm(grip - self.target.grip) <= self.tolerance or self.backtrack_steps_left == 0
+        ):
+            self.phase = FOLLOW_MIN_UNC
+            return MemoryChange(self.target.memory)
+        if self.phase == FOLLOW_MIN_UNC and self.steps_left == 0:
+            self.finished = True
+        return None
+
+    def act(self, grip: np.ndarray, min_unc_action: Callable[[], np.ndarray]) -> np.ndarray:
+        if self.phase == BACKTRACK:
+            self.backtrack_steps_left -= 1
+            return move_towards(grip, self.target.grip)
+        self.steps_left -= 1
+        return min_unc_action()
+
+
+class RandomMoves(Manoeuvre):
+    """rand: `steps` uniform random end-effector moves with the gripper left as it is, then a memory reset."""
+
+    phase = RANDOM_MOVES
+
+    def __init__(self, steps: int, scale: float, rng: np.random.Generator):
+        self.moves = rng.uniform(-scale, scale, size=(steps, 3))
+        self.done_steps = 0
+        self.finished = False
+
+    def advance(self, grip: np.ndarray) -> MemoryChange | None:
+        if self.done_steps == len(self.moves):
+            self.finished = True
+            return MemoryChange(None)
+        return None
+
+    def act(self, grip: np.ndarray, min_unc_action: Callable[[], np.ndarray]) -> np.ndarray:
+        move = self.moves[self.done_steps]
+        self.done_steps += 1
+        return np.array([*move, GRIPPER_NOOP], dtype=np.float32)
+
+
+class MoveToInit(Manoeuvre):
+    """init: open the gripper and move the grip point to a random point of a ball around the episode's
+    initial grip position (at most `steps` steps), then a memory reset."""
+
+    phase = MOVE_TO_INIT
+
+    def __init__(
+        self, centre: np.ndarray, radius: float, steps: int, tolerance: float, rng: np.random.Generator
+    ):
+        direction = rng.normal(size=3)
+        direction /= np.linalg.norm(direction)
+        self.target = centre + direction * radius * rng.uniform() ** (1.0 / 3.0)  # uniform in the ball
+        self.steps_left = steps
+        self.tolerance = tolerance
+        self.finished = False
+
+    def advance(self, grip: np.ndarray) -> MemoryChange | None:
+        if self.steps_left == 0 or np.linalg.norm(grip - self.target) <= self.tolerance:
+            self.finished = True
+            return MemoryChange(None)
+        return None
+
+    def act(self, grip: np.ndarray, min_unc_action: Callable[[], np.ndarray]) -> np.ndarray:
+        self.steps_left -= 1
+        return move_towards(grip, self.target, GRIPPER_OPEN)

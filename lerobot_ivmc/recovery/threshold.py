@@ -1,0 +1,145 @@
+"""The paper's maximum uncertainty u of an episode and its recovery threshold ("Picking Uncertainty
+Threshold"), and the file that carries a picked threshold inside a checkpoint folder."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+THRESHOLD_FILE = "recovery_threshold.json"
+DEFAULT_WINDOW = 20  # the paper: "a sliding window of 20 frames best avoids noisy peaks"
+
+
+def window_sums(uncertainties: Sequence[float] | np.ndarray, window: int) -> np.ndarray:
+    """Sum of the last `window` step uncertainties at every step (fewer at the episode's start).
+
+    Args:
+        uncertainties: (T,) per-step uncertainties of one episode.
+        window: the sliding window's length in steps.
+
+    Returns:
+        (T,) running window sums.
+    """
+    if window < 1:
+        raise ValueError(f"window must be >= 1 step, got {window}.")
+    u = np.asarray(uncertainties, dtype=np.float64)
+    cumulative = np.concatenate([[0.0], np.cumsum(u)])
+    end = np.arange(1, len(u) + 1)
+    return cumulative[end] - cumulative[np.maximum(end - window, 0)]
+
+
+def max_window_sum(uncertainties: Sequence[float] | np.ndarray, window: int) -> float:
+    """u(x): the maximum along the episode of the sliding-window sum of step uncertainties."""
+    if len(uncertainties) == 0:
+        raise ValueError("An episode needs at least one step to have a maximum uncertainty.")
+    return float(window_sums(uncertainties, window).max())
+
+
+def argmax_threshold(scores: Sequence[float], successes: Sequence[bool]) -> tuple[float, np.ndarray]:
+    """The paper's threshold: i* = argmax_i |{x: u(x) > u_i}| * r - |{x: u(x) > u_i, success}|, C = u_{i*}.
+
+    Under the paper's assumption that a recovered episode succeeds at the average rate r, the bracket is
+    the gain in successes from recovering every episode whose u exceeds u_i. Ties go to the lowest u_i.
+
+    Args:
+        scores: u of each validation episode.
+        successes: its task success.
+
+    Returns:
+        The threshold C and the gain of every candidate u_i in increasing order of u.
+    """
+    u = np.asarray(scores, dtype=np.float64)
+    ok = np.asarray(successes, dtype=bool)
+    if u.shape != ok.shape or u.ndim != 1 or len(u) == 0:
+        raise ValueError(f"Need one success flag per score, got {u.shape} scores and {ok.shape} flags.")
+    candidates = np.sort(u)
+    above = u[None, :] > candidates[:, None]  # (candidate, episode)
+    gains = above.sum(axis=1) * ok.mean() - (above & ok[None, :]).sum(axis=1)
+    return float(candidates[int(np.argmax(gains))]), gains
+
+
+@dataclass
+class ThresholdRecord:
+    """A picked threshold and the validation episodes it came from (`recovery_threshold.json`).
+
+    Attributes:
+        threshold: C, compared with the sliding-window sum of step uncertainties.
+        method: how it was picked ("argmax": the paper's).
+        window: the sliding window's length it applies to.
+        task: the task of the validation episodes.
+        split: their scene split.
+        num_samples: S, Monte Carlo samples per step (the uncertainty's scale depends on it).
+        uncertainty_lambda: lambda of the uncertainty measure.
+        episodes: per validation episode: seed, u and success.
+    """
+
+    threshold: float
+    method: str
+    window: int
+    task: str
+    split: str
+    num_samples: int
+    uncertainty_lambda: float
+    episodes: list[dict] = field(default_factory=list)
+
+    def save(self, folder: Path) -> Path:
+        path = Path(folder) / THRESHOLD_FILE
+        path.write_text(json.dumps(asdict(self), indent=2))
+        return path
+
+    @classmethod
+    def load(cls, folder: Path | str) -> ThresholdRecord | None:
+        """The record in a checkpoint folder, or None if it has none."""
+        path = Path(folder) / THRESHOLD_FILE
+        if not path.is_file():
+            return None
+        try:
+            return cls(**json.loads(path.read_text()))
+        except (json.JSONDecodeError, TypeError) as error:
+            raise ValueError(f"{path} is not a threshold record ({error}); pick it again.") from error
+
+
+def resolve_threshold(
+    mode: str,
+    override: float | None,
+    window: int | None,
+    record: ThresholdRecord | None,
+    task: str,
+) -> tuple[float | None, int, str]:
+    """The threshold and window an evaluation uses, and where the threshold came from.
+
+    An explicit `override` wins over the checkpoint's record; a record picked on another task, or with
+    another window than `window`, is refused.
+
+    Returns:
+        (threshold or None, window, source): source is "override", "checkpoint" or "none".
+    """
+    if record is not None and record.task != task:
+        raise ValueError(
+            f"The checkpoint's threshold was picked on task {record.task!r}, not {task!r}: pick one for "
+            f"{task!r} with `lerobot-ivmc-threshold --policy.path=<checkpoint> --env.task={task} ...`, or "
+            "pass --recovery.threshold=<value>."
+        )
+    if record is not None and window is not None and window != record.window:
+        raise ValueError(
+            f"The checkpoint's threshold applies to a window of {record.window} steps, not {window}: drop "
+            "--recovery.window, or pick a threshold for that window (lerobot-ivmc-threshold "
+            f"--recovery.window={window})."
+        )
+    window = window or (record.window if record is not None else DEFAULT_WINDOW)
+    if override is not None:
+        return override, window, "override"
+    if record is not None:
+        return record.threshold, window, "checkpoint"
+    if mode != "none":
+        raise ValueError(
+            f"--recovery.mode={mode} needs a threshold and the checkpoint has none ({THRESHOLD_FILE}): pick "
+            "one on validation scenes with `lerobot-ivmc-threshold --policy.path=<checkpoint> --env.task="
+            f"{task} --env.split=val ...` and evaluate the checkpoint it writes, or pass "
+            "--recovery.threshold=<value>."
+        )
+    return None, window, "none"

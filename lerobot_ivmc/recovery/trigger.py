@@ -1,0 +1,71 @@
+"""When to recover: Algorithm 1's test on the sliding-window sum, with exponential backoff."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class RecoveryTrigger:
+    """Algorithm 1, lines 4 to 9, for a batch of rollouts that started together.
+
+    At every step each rollout in normal operation adds its uncertainty to a sliding window; a recovery
+    fires when the window sum exceeds C and more than T_recovery steps have passed since the last recovery
+    (or the episode's start). Each firing doubles that rollout's T_recovery.
+
+    Args:
+        num_rollouts: B.
+        threshold: C.
+        window: the sliding window's length in steps.
+        initial_interval: T_recovery at the episode's start.
+        reset_window_after_recovery: clear a rollout's window when it fires.
+    """
+
+    def __init__(
+        self,
+        num_rollouts: int,
+        threshold: float,
+        window: int,
+        initial_interval: int,
+        reset_window_after_recovery: bool = True,
+    ):
+        self.threshold = threshold
+        self.window = window
+        self.reset_window_after_recovery = reset_window_after_recovery
+        self.step = 0
+        self.values = np.zeros((num_rollouts, window))  # circular buffer of the last `window` values
+        self.counts = np.zeros(num_rollouts, dtype=np.int64)  # values pushed since the last clear
+        self.interval = np.full(num_rollouts, initial_interval, dtype=np.int64)
+        self.last_recovery = np.zeros(num_rollouts, dtype=np.int64)
+        self.decision_sums = np.zeros(num_rollouts)
+
+    @property
+    def window_sum(self) -> np.ndarray:
+        """(B,) the current sliding-window sums."""
+        return self.values.sum(axis=1)
+
+    def update(self, uncertainty: np.ndarray, active: np.ndarray) -> np.ndarray:
+        """Add this step's uncertainties and decide which rollouts recover now.
+
+        Args:
+            uncertainty: (B,) this step's uncertainty.
+            active: (B,) bool, rollouts in normal operation (a rollout inside a recovery adds nothing and
+                cannot fire).
+
+        Returns:
+            (B,) bool: rollouts that start a recovery at this step.
+        """
+        rows = np.flatnonzero(active)
+        self.values[rows, self.counts[rows] % self.window] = uncertainty[rows]
+        self.counts[rows] += 1
+        self.decision_sums = self.window_sum  # what the test saw (the window may be cleared below)
+        fire = (
+            active & (self.decision_sums > self.threshold) & (self.step - self.last_recovery > self.interval)
+        )
+        fired = np.flatnonzero(fire)
+        self.interval[fired] *= 2
+        self.last_recovery[fired] = self.step
+        if self.reset_window_after_recovery:
+            self.values[fired] = 0.0
+            self.counts[fired] = 0
+        self.step += 1
+        return fire

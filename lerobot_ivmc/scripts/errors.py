@@ -1,0 +1,29 @@
+"""End a CLI on a bad input with the plugin's own one-line message instead of a long traceback."""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Callable
+
+from draccus.utils import DecodingError, ParsingError
+
+USER_ERRORS = (ValueError, FileExistsError, FileNotFoundError, ParsingError, DecodingError)
+
+
+def root_message(error: BaseException) -> str:
+    """The message of the error a config class raised, under draccus' wrappers."""
+    while isinstance(error, ParsingError | DecodingError) and error.__cause__ is not None:
+        error = error.__cause__
+    return str(error)
+
+
+def run_cli(main: Callable[[], object]) -> None:
+    """Run `main`; a bad input exits with status 2 and `error: <message>` (IVMC_TRACEBACK=1 re-raises)."""
+    try:
+        main()
+    except USER_ERRORS as error:
+        if os.environ.get("IVMC_TRACEBACK"):
+            raise
+        print(f"error: {root_message(error)}", file=sys.stderr)
+        sys.exit(2)

@@ -1,0 +1,180 @@
+"""`lerobot-ivmc-foresight`: distil the uncertainty foresight head into a bvmc checkpoint.
+
+Deploys the Bayesian VMC on training scenes, executing one Monte Carlo sample per step, records
+(e_t, a_t, u_{t+1}) (resumable shards), trains the head, reports its quality on held-out trajectories and
+on trying every candidate action of sampled states in a copy of the env, and writes a NEW checkpoint
+folder `<output_dir>/pretrained_model` (the input checkpoint is never modified) that `from_pretrained`
+loads as a policy that both acts and foresees.
+
+    lerobot-ivmc-foresight --policy.path=<bvmc checkpoint> --env.type=ivmc --env.task=pick_place \\
+        --foresight.num_trajectories=2000 --eval.batch_size=10 --seed=0 --output_dir=outputs/foresight
+"""
+
+import json
+import logging
+import shutil
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import torch
+from lerobot.configs import parser
+from lerobot.configs.eval import EvalPipelineConfig
+from lerobot.envs.factory import make_env
+from lerobot.utils.import_utils import register_third_party_plugins
+from lerobot.utils.random_utils import set_seed
+
+from lerobot_ivmc.envs import make_task_env
+from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
+from lerobot_ivmc.evaluation.loading import load_policy
+from lerobot_ivmc.recovery.foresight_data import collect_distillation_data, load_shards
+from lerobot_ivmc.recovery.foresight_ranking import measure_action_ranking
+from lerobot_ivmc.recovery.foresight_training import (
+    ForesightConfig,
+    foresight_quality,
+    split_by_trajectory,
+    train_foresight,
+)
+from lerobot_ivmc.scripts.errors import run_cli
+
+logger = logging.getLogger(__name__)
+
+REPORT_FILE = "foresight_report.json"
+CHECKPOINT_DIR = "pretrained_model"
+
+
+@dataclass
+class ForesightPipelineConfig(EvalPipelineConfig):
+    """`lerobot-eval`'s config (policy, env, `--eval.batch_size` parallel episodes, seed, output folder)
+    plus the distillation settings."""
+
+    foresight: ForesightConfig = field(default_factory=ForesightConfig)
+
+
+def copy_checkpoint_extras(source: Path, destination: Path) -> None:
+    """Copy the processors (and any other file) of a checkpoint folder except config and weights."""
+    for path in source.iterdir():
+        if path.is_file() and path.name not in ("config.json", "model.safetensors"):
+            shutil.copy2(path, destination / path.name)
+
+
+def check_inputs(cfg: ForesightPipelineConfig) -> Path:
+    if not isinstance(cfg.env, IvmcEnv):
+        raise ValueError(f"lerobot-ivmc-foresight runs on --env.type=ivmc, got {cfg.env.type!r}.")
+    if cfg.policy is None or cfg.policy.pretrained_path is None:
+        raise ValueError("Pass --policy.path=<bvmc checkpoint folder>.")
+    if cfg.policy.type != "bvmc":
+        raise ValueError(
+            f"The foresight head distils Bayesian VMC uncertainty: {cfg.policy.pretrained_path} is a "
+            f"{cfg.policy.type!r} policy; pass a bvmc checkpoint."
+        )
+    if cfg.seed is None:
+        raise ValueError("Pass --seed: it fixes the distillation scenes and sampled actions.")
+    checkpoint = Path(cfg.output_dir) / CHECKPOINT_DIR
+    if checkpoint.exists():
+        raise FileExistsError(
+            f"{checkpoint} exists: pass another --output_dir (checkpoints are never overwritten)."
+        )
+    if Path(cfg.output_dir).resolve() == Path(cfg.policy.pretrained_path).resolve():
+        raise ValueError(
+            "--output_dir must differ from --policy.path: the input checkpoint is never modified."
+        )
+    return checkpoint
+
+
+def run(cfg: ForesightPipelineConfig) -> dict:
+    checkpoint = check_inputs(cfg)
+    cfg.env.split = cfg.foresight.split
+    set_seed(cfg.seed)
+    loaded = load_policy(cfg)
+    policy = loaded.policy
+    envs = make_env(cfg.env, n_envs=cfg.eval.batch_size)
+    vector_env = next(iter(next(iter(envs.values())).values()))
+    output_dir = Path(cfg.output_dir)
+    spec = {
+        "policy": str(Path(cfg.policy.pretrained_path).resolve()),
+        "task": cfg.env.task,
+        "split": cfg.env.split,
+        "num_trajectories": cfg.foresight.num_trajectories,
+        "batch_size": cfg.eval.batch_size,
+        "seed": cfg.seed,
+        "num_samples": policy.config.num_samples,
+    }
+    shards = collect_distillation_data(
+        vector_env,
+        policy,
+        loaded.processors,
+        output_dir / "distillation",
+        cfg.foresight.num_trajectories,
+        cfg.seed,
+        spec,
+    )
+    vector_env.close()
+    records = load_shards(shards)
+    train_mask, heldout_mask = split_by_trajectory(records, cfg.foresight.heldout_fraction)
+    train = {k: v[train_mask] for k, v in records.items()}
+    heldout = {k: v[heldout_mask] for k, v in records.items()}
+    torch.manual_seed(cfg.seed)  # the head's initial weights
+    head = policy.attach_foresight()
+    losses = train_foresight(head, train, cfg.foresight, cfg.seed)
+    report = {
+        "spec": spec,
+        "settings": asdict(cfg.foresight),
+        "num_train_records": int(train_mask.sum()),
+        "num_heldout_records": int(heldout_mask.sum()),
+        "train_loss_per_epoch": losses,
+        "heldout": foresight_quality(head, heldout),
+    }
+    if cfg.foresight.ranking_states > 0:
+        env = make_task_env(
+            cfg.env.task, **{k: v for k, v in cfg.env.gym_kwargs.items() if k != "max_episode_steps"}
+        )
+        first_unused = cfg.seed + len(shards) * cfg.eval.batch_size
+        seeds = list(range(first_unused, first_unused + cfg.foresight.ranking_states))
+        report["action_ranking"] = measure_action_ranking(
+            env,
+            policy,
+            loaded.to_policy_batch,
+            seeds,
+            cfg.foresight.ranking_states,
+            cfg.foresight.ranking_every,
+        )
+        env.close()
+    checkpoint.mkdir(parents=True)
+    policy.save_pretrained(checkpoint)
+    copy_checkpoint_extras(Path(cfg.policy.pretrained_path), checkpoint)
+    text = json.dumps(report, indent=2, default=float)
+    (checkpoint / REPORT_FILE).write_text(text)
+    (output_dir / REPORT_FILE).write_text(text)
+    return report
+
+
+@parser.wrap()
+def foresight_main(cfg: ForesightPipelineConfig) -> dict:
+    report = run(cfg)
+    quality = report["heldout"]
+    print(
+        f"Foresight head on {report['num_heldout_records']} held-out records: Spearman rho "
+        f"{quality['spearman_rho']:.3f}, R^2 (log u) {quality['r2_log']:.3f}, R^2 (u) {quality['r2']:.3f} "
+        f"(persistence baseline rho {quality['baseline_persistence_spearman_rho']:.3f})"
+    )
+    if "action_ranking" in report:
+        ranking = report["action_ranking"]
+        print(
+            f"Action ranking on {ranking['num_states']} states: argmin match "
+            f"{ranking['argmin_match_rate']:.3f} "
+            f"(chance {ranking['chance_match_rate']:.3f}, measurement self-agreement "
+            f"{ranking['measurement_self_match_rate']:.3f}), percentile of choice "
+            f"{ranking['mean_percentile_of_choice']:.3f} (chance 0.5)"
+        )
+    print(f"Checkpoint with the foresight head: {Path(cfg.output_dir) / CHECKPOINT_DIR}")
+    return report
+
+
+def main() -> None:
+    logging.basicConfig(level=logging.INFO)
+    register_third_party_plugins()
+    run_cli(foresight_main)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,114 @@
+"""Fixtures for the recovery tests: a tiny bvmc trained by the real CLIs, with foresight and threshold."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+from unittest import mock
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "policies"))  # policy_helpers: configs, tiny dataset
+
+from policy_helpers import TINY_REPO_ID, build_expert_dataset  # noqa: E402
+
+# Short episodes keep the end-to-end runs to seconds; S = 8 Monte Carlo samples.
+EPISODE_LENGTH = 30
+ENV_FLAGS = [
+    "--env.type=ivmc",
+    "--env.task=pick_place",
+    f"--env.episode_length={EPISODE_LENGTH}",
+    "--env.render_size=64",
+]
+
+
+def console_script(name: str) -> str:
+    script = Path(sys.executable).with_name(name)
+    return str(script) if script.exists() else shutil.which(name)
+
+
+def run_cli(name: str, *args: str) -> subprocess.CompletedProcess:
+    """Run a console script in a subprocess and check it succeeds."""
+    result = subprocess.run([console_script(name), *args], capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    return result
+
+
+def run_main(name: str, *args: str):
+    """Run one of the plugin's draccus CLIs in this process (as its console script would, minus the
+    interpreter start-up), with `args` as its command line; exceptions propagate."""
+    from lerobot_ivmc.evaluation.eval_subtasks import eval_main
+    from lerobot_ivmc.scripts.pick_threshold import threshold_main
+    from lerobot_ivmc.scripts.train_foresight import foresight_main
+
+    mains = {
+        "lerobot-ivmc-eval": eval_main,
+        "lerobot-ivmc-foresight": foresight_main,
+        "lerobot-ivmc-threshold": threshold_main,
+    }
+    with mock.patch.object(sys, "argv", [name, *args]):
+        return mains[name]()
+
+
+@pytest.fixture(scope="session")
+def tiny_bvmc(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A bvmc checkpoint trained for 5 steps by lerobot-ivmc-train on a 2-episode dataset."""
+    root = tmp_path_factory.mktemp("recovery")
+    dataset = build_expert_dataset(root / "data")
+    out = root / "train"
+    run_cli(
+        "lerobot-ivmc-train",
+        "--policy.type=bvmc",
+        "--policy.num_samples=8",
+        f"--dataset.repo_id={TINY_REPO_ID}",
+        f"--dataset.root={dataset}",
+        "--policy.device=cpu",
+        "--policy.push_to_hub=false",
+        "--wandb.enable=false",
+        "--eval_freq=0",
+        "--steps=5",
+        "--save_freq=5",
+        "--batch_size=4",
+        "--num_workers=0",
+        f"--output_dir={out}",
+    )
+    return out / "checkpoints" / "000005" / "pretrained_model"
+
+
+@pytest.fixture(scope="session")
+def tiny_foresight(tiny_bvmc: Path) -> Path:
+    """The output folder of lerobot-ivmc-foresight on `tiny_bvmc` (4 episodes, 2 epochs, 2 ranked states)."""
+    out = tiny_bvmc.parents[3] / "foresight"
+    run_main(
+        "lerobot-ivmc-foresight",
+        f"--policy.path={tiny_bvmc}",
+        *ENV_FLAGS,
+        "--foresight.num_trajectories=4",
+        "--foresight.epochs=2",
+        "--foresight.ranking_states=2",
+        "--foresight.ranking_every=5",
+        "--eval.batch_size=2",
+        "--eval.n_episodes=2",
+        "--seed=0",
+        f"--output_dir={out}",
+    )
+    return out
+
+
+@pytest.fixture(scope="session")
+def tiny_recovery_checkpoint(tiny_foresight: Path) -> Path:
+    """`tiny_foresight`'s checkpoint with a threshold picked by lerobot-ivmc-threshold on 4 val episodes."""
+    out = tiny_foresight.parent / "threshold"
+    run_main(
+        "lerobot-ivmc-threshold",
+        f"--policy.path={tiny_foresight / 'pretrained_model'}",
+        *ENV_FLAGS,
+        "--env.split=val",
+        "--eval.n_episodes=4",
+        "--eval.batch_size=2",
+        "--seed=0",
+        f"--output_dir={out}",
+    )
+    return out / "pretrained_model"

@@ -1,0 +1,175 @@
+"""Algorithm 1 in a real env with scripted uncertainty: back-track, memory restore, min_unc choice,
+rand and init manoeuvres."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+import torch
+from lerobot.utils.constants import OBS_ENV_STATE, OBS_STATE
+from policy_helpers import IMAGE_KEY, make_config
+
+from lerobot_ivmc.envs import make_task_env
+from lerobot_ivmc.policies import BVMCConfig
+from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
+from lerobot_ivmc.recovery.config import RecoveryConfig
+from lerobot_ivmc.recovery.controller import IntrospectiveController, memory_row
+from lerobot_ivmc.recovery.manoeuvres import BACKTRACK, FOLLOW_MIN_UNC, MOVE_TO_INIT, RANDOM_MOVES
+
+IDENTITY_STATS = (torch.zeros(6), torch.ones(6))  # the batch carries raw positions
+
+
+def to_batch(observation: dict) -> dict[str, torch.Tensor]:
+    image = torch.from_numpy(observation["pixels"]["front"]).permute(2, 0, 1)[None].float() / 255
+    return {
+        IMAGE_KEY: image,
+        OBS_STATE: torch.as_tensor(observation["agent_pos"], dtype=torch.float32)[None],
+        OBS_ENV_STATE: torch.as_tensor(observation["environment_state"], dtype=torch.float32)[None],
+    }
+
+
+def scripted_policy(uncertainties: list[float], move: list[float]) -> BVMCPolicy:
+    """A bvmc (random weights, foresight head) whose step t reports `uncertainties[t]` and whose mean
+    action is the constant `move` with the gripper kept (so its path is known)."""
+    torch.manual_seed(0)
+    policy = BVMCPolicy(make_config(BVMCConfig, num_samples=8))
+    policy.attach_foresight()
+    policy.eval()
+    sample = policy.sample
+    step = {"t": 0}
+
+    def scripted(batch, *args, **kwargs):
+        prediction = sample(batch, *args, **kwargs)
+        t = min(step["t"], len(uncertainties) - 1)
+        step["t"] += 1
+        mean = torch.tensor([[*move, 0.0]], dtype=prediction.mean_action.dtype)
+        return dataclasses.replace(prediction, uncertainty=torch.tensor([uncertainties[t]]), mean_action=mean)
+
+    policy.sample = scripted
+    return policy
+
+
+def run_episode(controller: IntrospectiveController, steps: int, seed: int = 0) -> tuple[list, list]:
+    """Step a pick_place env with the controller; return per-step grip positions and actions."""
+    env = make_task_env("pick_place", image_size=64)
+    observation, _ = env.reset(seed=seed)
+    controller.reset()
+    grips, actions = [], []
+    for _ in range(steps):
+        grips.append(env.grip_position)
+        action = controller.select_action(to_batch(observation))[0].numpy()
+        actions.append(action)
+        observation, *_ = env.step(action)
+    env.close()
+    return grips, actions
+
+
+def test_min_unc_backtracks_to_the_least_uncertain_step_and_restores_its_memory() -> None:
+    # Step 4 is the least uncertain; step 10 pushes the 1-step window over the threshold.
+    stream = [0.2] * 4 + [0.01] + [0.2] * 5 + [1.0] + [0.2] * 100
+    policy = scripted_policy(stream, move=[0.0, 0.6, 0.0])
+    cfg = RecoveryConfig(mode="min_unc", window=1, initial_interval=0, recovery_steps=3)
+    controller = IntrospectiveController(policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS)
+    memories, restores = [], []
+    select = controller.select_action
+
+    def recording_select(batch):
+        action = select(batch)
+        memories.append(policy.get_memory())
+        return action
+
+    apply = controller._apply
+
+    def recording_apply(row, change):
+        apply(row, change)
+        restores.append((controller.step, controller.grip_positions(controller._last_batch), change.memory))
+
+    controller._apply = recording_apply
+    controller.select_action = recording_select
+    original = IntrospectiveController.grip_positions
+
+    def remember_batch(self, batch):
+        self._last_batch = batch
+        return original(self, batch)
+
+    controller.grip_positions = remember_batch.__get__(controller)
+    grips, _ = run_episode(controller, steps=30)
+
+    events = controller.traces[-1].events[0]
+    assert events[0]["step"] == 10 and events[0]["backtrack_to_step"] == 4
+    step, grip, memory = restores[0]
+    # The robot moved 6 steps along +y from step 4 to 10; it is back within tolerance of step 4 ...
+    assert np.linalg.norm(grips[10] - grips[4]) > 0.1
+    assert np.linalg.norm(grip[0] - grips[4]) <= cfg.backtrack_tolerance
+    # ... and the memory is exactly the one before step 4 (the memory after step 3).
+    for restored, saved in zip(memory, memory_row(memories[3], 0), strict=True):
+        assert torch.equal(restored, saved)
+    phases = np.stack(controller.traces[-1].phase)[:, 0]
+    assert (phases[10:step] == BACKTRACK).all() and (phases[step : step + 3] == FOLLOW_MIN_UNC).all()
+
+
+def test_min_unc_executes_the_candidate_with_the_lowest_foreseen_uncertainty() -> None:
+    policy = scripted_policy([0.0], move=[0.0, 0.0, 0.0])
+    cfg = RecoveryConfig(mode="min_unc")
+    controller = IntrospectiveController(
+        policy, cfg, threshold=1.0, window=20, env_state_stats=IDENTITY_STATS
+    )
+    env = make_task_env("pick_place", image_size=64)
+    observation, _ = env.reset(seed=1)
+    prediction = policy.sample(to_batch(observation))
+    foreseen = policy.foresee(prediction.embedding, prediction.samples)[0]
+    chosen = controller._min_unc_action(prediction, 0)
+    np.testing.assert_array_equal(chosen, prediction.samples[0, int(foreseen.argmin())].numpy())
+    # Against a head patched to prefer candidate 5:
+    policy.foresee = lambda e, a: torch.where(torch.arange(a.shape[1]) == 5, 0.0, 1.0)[None]
+    np.testing.assert_array_equal(controller._min_unc_action(prediction, 0), prediction.samples[0, 5].numpy())
+    env.close()
+
+
+@pytest.mark.parametrize("mode, phase", [("rand", RANDOM_MOVES), ("init", MOVE_TO_INIT)])
+def test_rand_and_init_move_then_reset_the_memory(mode: str, phase: int) -> None:
+    stream = [0.0] * 5 + [1.0] + [0.0] * 100
+    policy = scripted_policy(stream, move=[0.0, 0.3, 0.0])
+    cfg = RecoveryConfig(mode=mode, window=1, initial_interval=0, recovery_steps=25)
+    controller = IntrospectiveController(policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS)
+    changes = []
+    apply = controller._apply
+    controller._apply = lambda row, change: (changes.append(change), apply(row, change))
+    grips, actions = run_episode(controller, steps=40)
+    phases = np.stack(controller.traces[-1].phase)[:, 0]
+    inside = np.flatnonzero(phases == phase)
+    assert inside[0] == 5 and len(changes) == 1 and changes[0].memory is None  # memory reset at the end
+    moves = np.array(actions)[inside]
+    if mode == "rand":
+        assert (
+            len(inside) == 25
+            and (moves[:, 3] == 0).all()
+            and np.abs(moves[:, :3]).max() <= cfg.rand_step_scale
+        )
+    else:
+        assert moves[0, 3] == 1.0  # opens the gripper
+        target = np.array(controller.traces[-1].events[0][0]["target"])
+        assert np.linalg.norm(target - grips[0]) <= cfg.init_sphere_radius + 1e-4
+        end = inside[-1] + 1
+        assert np.linalg.norm(grips[end] - target) <= cfg.move_tolerance or len(inside) == cfg.recovery_steps
+
+
+def test_mode_none_records_but_never_recovers() -> None:
+    policy = scripted_policy([5.0], move=[0.1, 0.0, 0.0])
+    controller = IntrospectiveController(
+        policy, RecoveryConfig(mode="none"), threshold=0.1, window=20, env_state_stats=IDENTITY_STATS
+    )
+    run_episode(controller, steps=25)
+    trace = controller.traces[-1]
+    assert trace.events == [[]] and len(trace.uncertainty) == 25
+    np.testing.assert_allclose(trace.window_sum[-1], [100.0])  # 20 steps x 5.0, nothing cleared
+
+
+def test_min_unc_without_foresight_head_names_the_command() -> None:
+    policy = BVMCPolicy(make_config(BVMCConfig, num_samples=4))
+    with pytest.raises(ValueError, match="lerobot-ivmc-foresight"):
+        IntrospectiveController(policy, RecoveryConfig(mode="min_unc"), 1.0, 20, IDENTITY_STATS)
+    with pytest.raises(ValueError, match="recovery.mode"):
+        RecoveryConfig(mode="retry")

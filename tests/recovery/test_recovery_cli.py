@@ -1,0 +1,174 @@
+"""End to end through the real CLIs: lerobot-ivmc-foresight, lerobot-ivmc-threshold and
+lerobot-ivmc-eval with each recovery mode, on a tiny trained bvmc in the real env."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import sys
+from pathlib import Path
+from unittest import mock
+
+import numpy as np
+import pytest
+import torch
+from conftest import ENV_FLAGS, EPISODE_LENGTH, run_main
+
+from lerobot_ivmc.evaluation.traces import load_traces
+from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
+from lerobot_ivmc.recovery.threshold import THRESHOLD_FILE, ThresholdRecord, argmax_threshold
+
+
+def evaluate(checkpoint: Path, out: Path, *flags: str) -> dict:
+    return run_main(
+        "lerobot-ivmc-eval",
+        f"--policy.path={checkpoint}",
+        *ENV_FLAGS,
+        "--eval.n_episodes=2",
+        "--eval.batch_size=2",
+        "--seed=0",
+        f"--output_dir={out}",
+        *flags,
+    )
+
+
+def test_foresight_head_lives_in_a_new_checkpoint_and_round_trips(
+    tiny_bvmc: Path, tiny_foresight: Path, tmp_path
+):
+    checkpoint = tiny_foresight / "pretrained_model"
+    policy = BVMCPolicy.from_pretrained(checkpoint)
+    assert policy.config.foresight_enabled and policy.foresight is not None
+    policy.save_pretrained(tmp_path / "again")
+    again = BVMCPolicy.from_pretrained(tmp_path / "again")
+    for name, tensor in policy.foresight.state_dict().items():
+        assert torch.equal(tensor, again.foresight.state_dict()[name])
+    # The checkpoint it read is untouched: no head there.
+    assert BVMCPolicy.from_pretrained(tiny_bvmc).foresight is None
+    report = json.loads((checkpoint / "foresight_report.json").read_text())
+    assert {"spearman_rho", "r2", "r2_log"} <= set(report["heldout"])
+    assert report["action_ranking"]["num_states"] == 2
+    assert (checkpoint / "policy_preprocessor.json").exists()
+
+
+def test_distillation_resumes_a_killed_collection_without_duplicates(
+    tiny_bvmc: Path, tiny_foresight, tmp_path
+):
+    out = tmp_path / "resumed"
+    shutil.copytree(tiny_foresight / "distillation", out / "distillation")
+    (out / "distillation" / "shard_00001.npz").unlink()  # as if killed while recording batch 1
+    run_main(
+        "lerobot-ivmc-foresight",
+        f"--policy.path={tiny_bvmc}",
+        *ENV_FLAGS,
+        "--foresight.num_trajectories=4",
+        "--foresight.epochs=2",
+        "--foresight.ranking_states=0",
+        "--eval.batch_size=2",
+        "--eval.n_episodes=2",
+        "--seed=0",
+        f"--output_dir={out}",
+    )
+    for name in ("shard_00000.npz", "shard_00001.npz"):
+        with np.load(tiny_foresight / "distillation" / name) as a, np.load(out / "distillation" / name) as b:
+            for key in a.files:
+                np.testing.assert_array_equal(a[key], b[key])
+    # Other settings on the same folder are refused before anything is written.
+    other = tmp_path / "other_settings"
+    shutil.copytree(out / "distillation", other / "distillation")
+    with pytest.raises(ValueError, match="other settings"):
+        run_main(
+            "lerobot-ivmc-foresight",
+            f"--policy.path={tiny_bvmc}",
+            *ENV_FLAGS,
+            "--foresight.num_trajectories=6",
+            "--eval.batch_size=2",
+            "--eval.n_episodes=2",
+            "--seed=0",
+            f"--output_dir={other}",
+        )
+    assert not (other / "pretrained_model").exists()
+
+
+def test_threshold_is_the_argmax_of_the_validation_episodes(
+    tiny_foresight: Path, tiny_recovery_checkpoint: Path
+):
+    record = ThresholdRecord.load(tiny_recovery_checkpoint)
+    assert record.task == "pick_place" and record.split == "val" and len(record.episodes) == 4
+    expected, _ = argmax_threshold([e["u"] for e in record.episodes], [e["success"] for e in record.episodes])
+    assert record.threshold == expected
+    assert not (tiny_foresight / "pretrained_model" / THRESHOLD_FILE).exists()  # input untouched
+
+
+@pytest.mark.parametrize("mode", ["none", "rand", "init", "min_unc"])
+def test_each_mode_runs_end_to_end(mode: str, tiny_recovery_checkpoint: Path, tmp_path: Path) -> None:
+    out = tmp_path / mode
+    flags = [f"--recovery.mode={mode}", "--recovery.recovery_steps=5", "--recovery.max_videos=1"]
+    if mode != "none":  # a zero threshold and short interval make sure recoveries happen in 30 steps
+        flags += ["--recovery.threshold=0.0", "--recovery.initial_interval=2"]
+    evaluate(tiny_recovery_checkpoint, out, *flags)
+    info = json.loads((out / "eval_info.json").read_text())
+    assert info["recovery"]["mode"] == mode
+    episodes = info["per_episode"]
+    assert len(episodes) == 2 and all("max_uncertainty" in e and "subtasks" in e for e in episodes)
+    traces = load_traces(out / "uncertainty_traces.npz")
+    assert [len(t["uncertainty"]) for t in traces] == [EPISODE_LENGTH] * 2  # tiny policy: no success
+    assert (out / "uncertainty_vs_success.png").stat().st_size > 0
+    if mode == "none":
+        assert (
+            info["recovery"]["num_recoveries"] == 0 and info["recovery"]["threshold_source"] == "checkpoint"
+        )
+    else:
+        assert info["recovery"]["num_recoveries"] > 0
+        assert all(event["mode"] == mode for e in episodes for event in e["recoveries"])
+        assert len(list((out / "recovery_videos").glob("*.mp4"))) == 1
+
+
+def test_same_seed_gives_identical_results(tiny_recovery_checkpoint: Path, tmp_path: Path) -> None:
+    flags = ["--recovery.mode=min_unc", "--recovery.threshold=0.0", "--recovery.initial_interval=2"]
+    flags += ["--recovery.max_videos=0"]
+    for name in ("a", "b"):
+        evaluate(tiny_recovery_checkpoint, tmp_path / name, *flags)
+    a, b = (json.loads((tmp_path / n / "eval_info.json").read_text()) for n in "ab")
+    for key in ("max_uncertainty", "recoveries", "subtasks", "sum_reward", "success"):
+        assert [e[key] for e in a["per_episode"]] == [e[key] for e in b["per_episode"]]
+    for x, y in zip(*(load_traces(tmp_path / n / "uncertainty_traces.npz") for n in "ab"), strict=True):
+        np.testing.assert_array_equal(x["uncertainty"], y["uncertainty"])
+
+
+def test_bad_requests_say_what_to_do(
+    tiny_bvmc: Path, tiny_foresight: Path, tiny_recovery_checkpoint, tmp_path
+):
+    cases = [
+        (tiny_bvmc, ["--recovery.mode=min_unc", "--recovery.threshold=0.1"], "lerobot-ivmc-foresight"),
+        (tiny_foresight / "pretrained_model", ["--recovery.mode=rand"], "lerobot-ivmc-threshold"),
+        (
+            tiny_recovery_checkpoint,
+            ["--recovery.mode=rand", "--env.task=push"],
+            "picked on task 'pick_place'",
+        ),
+    ]
+    vmc = tmp_path / "vmc"
+    shutil.copytree(tiny_bvmc, vmc)
+    config = json.loads((vmc / "config.json").read_text())
+    bvmc_only = ("dropout_init", "dropout_temperature", "length_scale", "dataset_size", "mc_sampling")
+    bvmc_only += ("num_samples", "uncertainty_lambda", "foresight_enabled", "foresight_hidden_dim")
+    config = {k: v for k, v in config.items() if k not in bvmc_only} | {"type": "vmc"}
+    (vmc / "config.json").write_text(json.dumps(config))
+    cases.append((vmc, ["--recovery.mode=init", "--recovery.threshold=0.1"], "needs a bvmc checkpoint"))
+    for i, (checkpoint, flags, message) in enumerate(cases):
+        with pytest.raises(ValueError, match=re.escape(message)):
+            evaluate(checkpoint, tmp_path / f"bad{i}", *flags)
+        assert not (tmp_path / f"bad{i}" / "eval_info.json").exists()
+
+
+def test_cli_ends_with_a_one_line_message(tiny_recovery_checkpoint: Path, tmp_path: Path, capsys) -> None:
+    from lerobot_ivmc.evaluation.eval_subtasks import main
+
+    argv = ["lerobot-ivmc-eval", f"--policy.path={tiny_recovery_checkpoint}", *ENV_FLAGS]
+    argv += ["--recovery.mode=retry", "--seed=0", f"--output_dir={tmp_path}"]
+    with mock.patch.object(sys, "argv", argv), pytest.raises(SystemExit) as exit_info:
+        main()
+    assert exit_info.value.code == 2
+    last_line = capsys.readouterr().err.strip().splitlines()[-1]
+    assert last_line.startswith("error: --recovery.mode must be one of ('none', 'rand', 'init', 'min_unc')")

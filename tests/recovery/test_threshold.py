@@ -1,0 +1,69 @@
+"""The paper's u and threshold pick on hand-worked examples, and how an eval resolves its threshold."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from lerobot_ivmc.recovery.threshold import (
+    ThresholdRecord,
+    argmax_threshold,
+    max_window_sum,
+    resolve_threshold,
+    window_sums,
+)
+
+
+def test_window_sums_and_u_by_hand() -> None:
+    u = [1.0, 2.0, 3.0, 0.0, 5.0]
+    # window 2: 1, 1+2, 2+3, 3+0, 0+5
+    np.testing.assert_allclose(window_sums(u, 2), [1, 3, 5, 3, 5])
+    np.testing.assert_allclose(window_sums(u, 20), [1, 3, 6, 6, 11])
+    assert max_window_sum(u, 3) == 8.0  # 3 + 0 + 5
+    with pytest.raises(ValueError, match="window"):
+        window_sums(u, 0)
+
+
+def test_argmax_threshold_by_hand() -> None:
+    # Sorted by u: 1 (S), 2 (S), 3 (F), 4 (S), 5 (F), 6 (F); mean success r = 0.5.
+    scores = [4.0, 1.0, 6.0, 2.0, 5.0, 3.0]
+    successes = [True, True, False, True, False, False]
+    threshold, gains = argmax_threshold(scores, successes)
+    # candidate u_i: episodes above it (n), successes above (s), gain = n * 0.5 - s
+    # u=1: n=5, s=2 -> 0.5; u=2: n=4, s=1 -> 1.0; u=3: n=3, s=1 -> 0.5; u=4: n=2, s=0 -> 1.0;
+    # u=5: n=1, s=0 -> 0.5; u=6: n=0 -> 0.
+    np.testing.assert_allclose(gains, [0.5, 1.0, 0.5, 1.0, 0.5, 0.0])
+    assert threshold == 2.0  # the first (lowest) of the tied maxima
+
+
+def test_argmax_threshold_with_ties_and_bad_input() -> None:
+    threshold, gains = argmax_threshold([1.0, 1.0, 2.0], [True, False, False])
+    # r = 1/3. u=1 (twice): only the u=2 failure is above: 1/3 - 0; u=2: nothing above.
+    np.testing.assert_allclose(gains, [1 / 3, 1 / 3, 0.0])
+    assert threshold == 1.0
+    with pytest.raises(ValueError, match="one success flag per score"):
+        argmax_threshold([1.0, 2.0], [True])
+
+
+def record(task: str = "pick_place", window: int = 20) -> ThresholdRecord:
+    return ThresholdRecord(
+        0.7, "argmax", window, task, "val", 50, 0.5, [{"seed": 0, "u": 1.0, "success": False}]
+    )
+
+
+def test_threshold_record_round_trip(tmp_path) -> None:
+    record().save(tmp_path)
+    assert ThresholdRecord.load(tmp_path) == record()
+    assert ThresholdRecord.load(tmp_path / "missing") is None
+
+
+def test_resolve_threshold_prefers_override_and_refuses_mismatches() -> None:
+    assert resolve_threshold("min_unc", None, None, record(), "pick_place") == (0.7, 20, "checkpoint")
+    assert resolve_threshold("min_unc", 0.3, None, record(), "pick_place") == (0.3, 20, "override")
+    assert resolve_threshold("none", None, None, None, "push") == (None, 20, "none")
+    with pytest.raises(ValueError, match="lerobot-ivmc-threshold"):
+        resolve_threshold("rand", None, None, None, "push")
+    with pytest.raises(ValueError, match="picked on task 'pick_place'"):
+        resolve_threshold("min_unc", None, None, record(), "push")
+    with pytest.raises(ValueError, match="window of 20 steps, not 10"):
+        resolve_threshold("min_unc", None, 10, record(), "pick_place")

@@ -1,0 +1,57 @@
+"""Algorithm 1's trigger on scripted uncertainty streams: window sum, threshold, backoff doubling."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from lerobot_ivmc.recovery.trigger import RecoveryTrigger
+
+
+def run(trigger: RecoveryTrigger, stream: list[float], active: list[bool] | None = None) -> list[int]:
+    """Steps at which rollout 0 fires."""
+    fired = []
+    for t, u in enumerate(stream):
+        on = np.array([True if active is None else active[t]])
+        if trigger.update(np.array([u]), on)[0]:
+            fired.append(t)
+    return fired
+
+
+def test_fires_when_window_sum_exceeds_threshold_after_the_interval() -> None:
+    # window 3, C = 2.5, T = 2: the sum first exceeds 2.5 at step 2 (1+1+1 = 3), but 2 - 0 > 2 fails;
+    # step 3: sum 3 and 3 > 2 -> fire; window cleared, T doubles to 4.
+    trigger = RecoveryTrigger(1, threshold=2.5, window=3, initial_interval=2)
+    fired = run(trigger, [1.0] * 12)
+    # After step 3 the window refills: sum 3 again at step 6, but 6 - 3 > 4 fails until step 8; T -> 8;
+    # then 11 - 8 > 8 fails to the end.
+    assert fired == [3, 8]
+    assert trigger.interval[0] == 8  # doubled twice: 2 -> 4 -> 8
+
+
+def test_window_sum_slides_and_low_values_never_fire() -> None:
+    trigger = RecoveryTrigger(1, threshold=2.5, window=3, initial_interval=0)
+    assert run(trigger, [1.0, 1.0, 0.0, 1.0, 0.0, 1.0, 1.0]) == []  # no 3 consecutive highs
+    np.testing.assert_allclose(trigger.window_sum, [2.0])
+    assert run(RecoveryTrigger(1, 2.5, 3, 0), [0.5, 2.0, 0.1]) == [2]  # 2.6 > 2.5
+
+
+def test_inactive_steps_add_nothing_and_cannot_fire() -> None:
+    trigger = RecoveryTrigger(1, threshold=1.5, window=2, initial_interval=0)
+    active = [True, False, False, True, True]
+    assert run(trigger, [1.0, 5.0, 5.0, 1.0, 0.0], active) == [3]  # the 5s are never counted
+
+
+def test_window_is_kept_when_reset_is_disabled() -> None:
+    trigger = RecoveryTrigger(
+        1, threshold=1.5, window=2, initial_interval=0, reset_window_after_recovery=False
+    )
+    # fires at 1 (sum 2, T -> 0*2 = 0), and again at 2 since the window still holds the high values.
+    assert run(trigger, [1.0, 1.0, 1.0]) == [1, 2]
+
+
+def test_rollouts_of_a_batch_are_independent() -> None:
+    trigger = RecoveryTrigger(2, threshold=0.5, window=1, initial_interval=0)
+    fires = [
+        trigger.update(np.array(u), np.array([True, True])) for u in ([0.0, 0.0], [1.0, 0.0], [0.0, 1.0])
+    ]
+    assert [f.tolist() for f in fires] == [[False, False], [True, False], [False, True]]
