@@ -140,6 +140,10 @@ def evaluate(cfg: IvmcEvalConfig, ignore_stored_threshold: bool = False) -> dict
         threshold, window, source = resolve_threshold(
             cfg.recovery.mode, cfg.recovery.threshold, cfg.recovery.window, record, cfg.env.task
         )
+        if source == "checkpoint":
+            source = (
+                f"checkpoint ({record.method}{'' if record.alpha is None else f', alpha={record.alpha}'})"
+            )
     logger.info(pformat(asdict(cfg)))
     set_seed(cfg.seed)
     wants_videos = is_bayesian and cfg.recovery.mode != "none" and cfg.recovery.max_videos > 0
@@ -171,6 +175,15 @@ def evaluate(cfg: IvmcEvalConfig, ignore_stored_threshold: bool = False) -> dict
     for episode, flags in zip(info["per_episode"], milestones, strict=True):
         episode["subtasks"] = flags
     info["aggregated_subtasks"] = aggregate_milestones(milestones)
+    info["run"] = {
+        "task": cfg.env.task,
+        "split": cfg.env.split,
+        "policy_path": str(cfg.policy.pretrained_path),
+        "policy_type": cfg.policy.type,
+        "num_fc_layers": cfg.policy.num_fc_layers,
+        "seed": cfg.seed,
+        "n_episodes": n,
+    }
     output_dir.mkdir(parents=True, exist_ok=True)
     if controller is not None:
         episodes = episode_traces(controller.traces, lengths_per_env, n, window)

@@ -4,6 +4,7 @@ Threshold"), and the file that carries a picked threshold inside a checkpoint fo
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -62,13 +63,42 @@ def argmax_threshold(scores: Sequence[float], successes: Sequence[bool]) -> tupl
     return float(candidates[int(np.argmax(gains))]), gains
 
 
+def conformal_threshold(success_scores: Sequence[float], alpha: float) -> float:
+    """Split conformal threshold from the scores of n successful calibration episodes.
+
+    The ceil((n + 1)(1 - alpha))-th smallest score: on a new successful episode exchangeable with the
+    calibration ones, P(score > threshold) <= alpha, i.e. the episode-level false-alarm rate is at most
+    alpha (FAIL-Detect, Sentinel's STAC calibration).
+
+    Args:
+        success_scores: u of each successful calibration episode.
+        alpha: the false-alarm bound, in (0, 1).
+
+    Returns:
+        The threshold.
+    """
+    if not 0.0 < alpha < 1.0:
+        raise ValueError(f"alpha must lie in (0, 1), got {alpha}.")
+    scores = np.sort(np.asarray(success_scores, dtype=np.float64))
+    n = len(scores)
+    rank = math.ceil((n + 1) * (1.0 - alpha) - 1e-9)  # the guard keeps 10 * 0.9 at 9
+    if rank > n:
+        needed = math.ceil((1.0 - alpha) / alpha - 1e-9)  # the least n with ceil((n + 1)(1 - alpha)) <= n
+        raise ValueError(
+            f"A conformal threshold at alpha={alpha} needs at least {needed} successful calibration "
+            f"episodes; got {n}. Evaluate more validation episodes (--eval.n_episodes) or raise alpha."
+        )
+    return float(scores[rank - 1])
+
+
 @dataclass
 class ThresholdRecord:
     """A picked threshold and the validation episodes it came from (`recovery_threshold.json`).
 
     Attributes:
         threshold: C, compared with the sliding-window sum of step uncertainties.
-        method: how it was picked ("argmax": the paper's).
+        method: how it was picked ("argmax": the paper's; "conformal": split conformal on successes).
+        alpha: the false-alarm bound of a conformal threshold (None for argmax).
         window: the sliding window's length it applies to.
         task: the task of the validation episodes.
         split: their scene split.
@@ -85,6 +115,7 @@ class ThresholdRecord:
     num_samples: int
     uncertainty_lambda: float
     episodes: list[dict] = field(default_factory=list)
+    alpha: float | None = None
 
     def save(self, folder: Path) -> Path:
         path = Path(folder) / THRESHOLD_FILE

@@ -20,12 +20,17 @@ from lerobot.configs import parser
 from lerobot.utils.import_utils import register_third_party_plugins
 
 from lerobot_ivmc.evaluation.eval_subtasks import IvmcEvalConfig, evaluate
-from lerobot_ivmc.recovery.threshold import DEFAULT_WINDOW, ThresholdRecord, argmax_threshold
+from lerobot_ivmc.recovery.threshold import (
+    DEFAULT_WINDOW,
+    ThresholdRecord,
+    argmax_threshold,
+    conformal_threshold,
+)
 from lerobot_ivmc.scripts.errors import run_cli
 
 logger = logging.getLogger(__name__)
 
-THRESHOLD_METHODS = ("argmax",)
+THRESHOLD_METHODS = ("argmax", "conformal")
 CHECKPOINT_DIR = "pretrained_model"
 
 
@@ -34,10 +39,14 @@ class ThresholdPipelineConfig(IvmcEvalConfig):
     """`lerobot-ivmc-eval`'s config plus the threshold method.
 
     Args:
-        method: "argmax", the paper's pick (maximise the expected gain in successes from recovering).
+        method: "argmax", the paper's pick (maximise the expected gain in successes from recovering), or
+            "conformal": split conformal calibration on the successful episodes only, which bounds the
+            episode-level false-alarm rate on successes by `alpha`.
+        alpha: the false-alarm bound of the conformal threshold.
     """
 
     method: str = "argmax"
+    alpha: float = 0.1
 
 
 def check_inputs(cfg: ThresholdPipelineConfig) -> Path:
@@ -45,6 +54,8 @@ def check_inputs(cfg: ThresholdPipelineConfig) -> Path:
         raise ValueError(f"--method must be one of {THRESHOLD_METHODS}, got {cfg.method!r}.")
     if cfg.policy is None or cfg.policy.pretrained_path is None or cfg.policy.type != "bvmc":
         raise ValueError("Pass --policy.path=<bvmc checkpoint folder>: thresholds apply to bvmc uncertainty.")
+    if not 0.0 < cfg.alpha < 1.0:
+        raise ValueError(f"--alpha must lie in (0, 1), got {cfg.alpha}.")
     if cfg.recovery.mode != "none":
         raise ValueError("Thresholds are picked on episodes without recovery: drop --recovery.mode.")
     if cfg.env.split == "test":
@@ -71,10 +82,14 @@ def pick(cfg: ThresholdPipelineConfig) -> ThresholdRecord:
     episodes = info["per_episode"]
     scores = [e["max_uncertainty"] for e in episodes]
     successes = [bool(e["success"]) for e in episodes]
-    threshold, _ = argmax_threshold(scores, successes)
+    if cfg.method == "conformal":
+        threshold = conformal_threshold([u for u, ok in zip(scores, successes, strict=True) if ok], cfg.alpha)
+    else:
+        threshold, _ = argmax_threshold(scores, successes)
     record = ThresholdRecord(
         threshold=threshold,
         method=cfg.method,
+        alpha=cfg.alpha if cfg.method == "conformal" else None,
         window=cfg.recovery.window,
         task=cfg.env.task,
         split=cfg.env.split,

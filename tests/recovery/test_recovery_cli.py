@@ -116,7 +116,7 @@ def test_each_mode_runs_end_to_end(mode: str, tiny_recovery_checkpoint: Path, tm
     assert (out / "uncertainty_vs_success.png").stat().st_size > 0
     if mode == "none":
         assert (
-            info["recovery"]["num_recoveries"] == 0 and info["recovery"]["threshold_source"] == "checkpoint"
+            info["recovery"]["num_recoveries"] == 0 and info["recovery"]["threshold_source"] == "checkpoint (argmax)"
         )
     else:
         assert info["recovery"]["num_recoveries"] > 0

@@ -1,0 +1,137 @@
+"""`lerobot-ivmc-detect`: failure-prediction metrics of a bvmc evaluation without recovery.
+
+Reads a `lerobot-ivmc-eval --recovery.mode=none` output (per-episode u and the per-step traces) and the
+threshold record of the evaluated checkpoint (its validation episodes), and writes `detection.json` and
+plots: AUROC of u for failure; TPR, TNR, balanced accuracy and lead time at the paper's argmax threshold
+and at a conformal threshold calibrated on the validation successes; the false-alarm rate on the test
+successes against alpha for several alphas (the conformal guarantee, checked).
+
+    lerobot-ivmc-detect --eval_dir=outputs/eval/bvmc_test --alpha=0.1
+"""
+
+import json
+import logging
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from lerobot.configs import parser
+
+from lerobot_ivmc.evaluation.detection import auroc, conformal_sweep, metrics_at_threshold, plot_detection
+from lerobot_ivmc.evaluation.traces import TRACES_FILE, load_traces
+from lerobot_ivmc.recovery.threshold import ThresholdRecord, conformal_threshold
+from lerobot_ivmc.scripts.errors import run_cli
+
+logger = logging.getLogger(__name__)
+
+DETECTION_FILE = "detection.json"
+
+
+@dataclass
+class DetectionConfig:
+    """Args:
+    eval_dir: output folder of `lerobot-ivmc-eval` without recovery (the test episodes to score).
+    threshold_path: checkpoint folder whose `recovery_threshold.json` gives the argmax threshold and the
+        validation episodes for conformal calibration; default: the evaluated checkpoint.
+    alpha: the false-alarm bound of the conformal threshold reported next to the argmax one.
+    alphas: the alphas of the sweep that checks the conformal guarantee on test successes.
+    output_dir: where detection.json and the plots go; default: `<eval_dir>/detection`.
+    """
+
+    eval_dir: Path | None = None
+    threshold_path: Path | None = None
+    alpha: float = 0.1
+    alphas: list[float] = field(default_factory=lambda: [0.02, 0.05, 0.1, 0.2, 0.3, 0.5])
+    output_dir: Path | None = None
+
+
+def detect(cfg: DetectionConfig) -> dict:
+    if cfg.eval_dir is None or not (Path(cfg.eval_dir) / "eval_info.json").is_file():
+        raise FileNotFoundError(f"--eval_dir={cfg.eval_dir} holds no eval_info.json of lerobot-ivmc-eval.")
+    info = json.loads((Path(cfg.eval_dir) / "eval_info.json").read_text())
+    if info.get("recovery", {}).get("mode") != "none":
+        raise ValueError(
+            "Failure prediction is measured on episodes without recovery: pass the output of "
+            "lerobot-ivmc-eval --recovery.mode=none (recovery changes what would have failed)."
+        )
+    threshold_path = cfg.threshold_path or Path(info["run"]["policy_path"])
+    record = ThresholdRecord.load(threshold_path)
+    if record is None:
+        raise FileNotFoundError(
+            f"{threshold_path} has no recovery_threshold.json: pick one with lerobot-ivmc-threshold, or pass "
+            "--threshold_path."
+        )
+    if record.task != info["run"]["task"]:
+        raise ValueError(
+            f"The threshold was picked on {record.task!r}, the eval ran {info['run']['task']!r}."
+        )
+    episodes = info["per_episode"]
+    scores = [e["max_uncertainty"] for e in episodes]
+    failures = [not e["success"] for e in episodes]
+    traces = [t["window_sum"] for t in load_traces(Path(cfg.eval_dir) / TRACES_FILE)]
+    calibration = [e["u"] for e in record.episodes if e["success"]]
+    conformal = conformal_threshold(calibration, cfg.alpha)
+    sweep = conformal_sweep(calibration, scores, failures, sorted(cfg.alphas))
+    result = {
+        "task": info["run"]["task"],
+        "episodes": len(episodes),
+        "failures": int(sum(failures)),
+        "window": record.window,
+        "auroc": auroc(scores, failures),
+        "calibration": {
+            "split": record.split,
+            "episodes": len(record.episodes),
+            "successes": len(calibration),
+        },
+        "argmax": metrics_at_threshold(scores, failures, record.threshold, traces)
+        if record.method == "argmax"
+        else None,
+        "conformal": {"alpha": cfg.alpha, **metrics_at_threshold(scores, failures, conformal, traces)},
+        "conformal_sweep": sweep,
+        "lead_time_definition": "steps from the first window sum above the threshold to the episode's end",
+    }
+    output_dir = Path(cfg.output_dir or Path(cfg.eval_dir) / "detection")
+    thresholds = {f"conformal a={cfg.alpha}": conformal}
+    if record.method == "argmax":
+        thresholds = {"argmax": record.threshold, **thresholds}
+    title = f"{result['task']}: {len(episodes)} {info['run']['split']} episodes"
+    result["plots"] = [
+        p.name for p in plot_detection(scores, failures, traces, thresholds, sweep, output_dir, title)
+    ]
+    (output_dir / DETECTION_FILE).write_text(json.dumps(result, indent=2))
+    return result
+
+
+@parser.wrap()
+def detect_main(cfg: DetectionConfig) -> dict:
+    result = detect(cfg)
+    print(
+        f"{result['task']}: AUROC of u for failure {result['auroc']:.3f} ({result['failures']} failures in "
+        f"{result['episodes']} episodes)"
+    )
+    for name in ("argmax", "conformal"):
+        m = result[name]
+        if m is None:
+            continue
+        median_lead = (m.get("lead_time_steps") or {}).get("median", float("nan"))
+        balanced = m.get("balanced_accuracy", float("nan"))
+        print(
+            f"  {name:<9} C={m['threshold']:.3f}: TPR {m['tpr']['pc']:.1f}%, TNR {m['tnr']['pc']:.1f}%, "
+            f"balanced {balanced:.1f}%, lead time {median_lead:.0f} steps (median)"
+        )
+    for row in result["conformal_sweep"]:
+        rate = row["false_alarm_rate"]
+        verdict = "within" if row["within_bound"] else "OUTSIDE"
+        print(
+            f"  alpha {row['alpha']:.2f}: false alarms on test successes {rate['pc']:.1f} +- "
+            f"{rate['stderr']:.1f}% ({verdict} alpha + 2 SE)"
+        )
+    return result
+
+
+def main() -> None:
+    logging.basicConfig(level=logging.INFO)
+    run_cli(detect_main)
+
+
+if __name__ == "__main__":
+    main()
