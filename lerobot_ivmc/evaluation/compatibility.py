@@ -1,26 +1,19 @@
-"""Does a checkpoint fit the env it is about to run in? And one-line errors for the plugin's CLIs.
+"""Does a checkpoint fit the env it is about to run in?
 
 A checkpoint's `config.json` records the features it was trained on (`input_features`,
 `output_features`). `check_policy_matches_env` compares them with the features the env config produces,
 as LeRobot derives them (`env_to_policy_features`), before the first step: a 64-pixel policy on
 `--env.image_size=32` would otherwise fail with a tensor-size error deep inside the CNN, and a pixel policy
-on `--env.obs_type=state` with a `KeyError`.
+on `--env.obs_type=state` with a `KeyError`. The error is a `ValueError`, so the plugin's CLIs end on it
+with one line (`lerobot_ivmc.scripts.errors.run_cli`).
 """
 
 from __future__ import annotations
 
-import contextlib
-import sys
-from collections.abc import Iterator
-
-from draccus.utils import ParsingError
 from lerobot.configs.policies import PreTrainedConfig
 from lerobot.configs.types import FeatureType
 from lerobot.envs.configs import EnvConfig
 from lerobot.envs.utils import env_to_policy_features
-
-from lerobot_ivmc.datasets.staging import CollectionError
-from lerobot_ivmc.policies.checkpoint_checks import CheckpointError
 
 _PIXEL_OBS_TYPE = "pixels_agent_pos"
 
@@ -82,54 +75,3 @@ def check_policy_matches_env(policy_cfg: PreTrainedConfig, env_cfg: EnvConfig) -
         raise EnvMismatchError(
             f"This {policy_cfg.type} checkpoint does not fit the {env_name} env: {'; '.join(problems)}."
         )
-
-
-def _chain(error: BaseException) -> list[BaseException]:
-    chain, seen = [], set()
-    while error is not None and id(error) not in seen:
-        chain.append(error)
-        seen.add(id(error))
-        error = error.__cause__ or error.__context__
-    return chain
-
-
-def _raised_in_plugin(error: BaseException) -> bool:
-    traceback = error.__traceback__
-    if traceback is None:
-        return False
-    while traceback.tb_next is not None:
-        traceback = traceback.tb_next
-    return traceback.tb_frame.f_globals.get("__name__", "").startswith("lerobot_ivmc")
-
-
-def plugin_error_message(error: BaseException) -> str | None:
-    """The plugin's own one-line message for a user error, or None for anything else.
-
-    User errors are the plugin's refusals (`EnvMismatchError`, `CheckpointError`, `CollectionError`) and
-    a `ValueError` raised by a plugin config class (`IvmcEnv`, `VMCConfig`, ...) while draccus parsed the
-    command line, which draccus otherwise buries in a `ParsingError` traceback.
-    """
-    chain = _chain(error)
-    for link in chain:
-        if isinstance(link, EnvMismatchError | CheckpointError | CollectionError):
-            return " ".join(str(link).split())
-    if any(isinstance(link, ParsingError) for link in chain):
-        root = chain[-1]
-        if isinstance(root, ValueError) and _raised_in_plugin(root):
-            return " ".join(str(root).split())
-    return None
-
-
-@contextlib.contextmanager
-def one_line_errors(prog: str) -> Iterator[None]:
-    """Around a CLI's main: a user error (see `plugin_error_message`) ends it with one line,
-    ``<prog>: error: <message>`` on stderr, and exit status 2, as argparse does; any other error keeps its
-    traceback."""
-    try:
-        yield
-    except Exception as error:
-        message = plugin_error_message(error)
-        if message is None:
-            raise
-        print(f"{prog}: error: {message}", file=sys.stderr)
-        raise SystemExit(2) from None

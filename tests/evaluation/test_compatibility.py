@@ -1,8 +1,6 @@
-"""A checkpoint is checked against the env before the first step; plugin errors end CLIs in one line."""
+"""A checkpoint is checked against the env before the first step, naming the flag that fixes a mismatch."""
 
-import draccus
 import pytest
-from lerobot.configs.eval import EvalPipelineConfig
 from lerobot.configs.policies import PreTrainedConfig
 from lerobot.configs.types import FeatureType, PolicyFeature
 from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
@@ -11,10 +9,9 @@ from lerobot_ivmc.envs.configuration_ivmc import IMAGE_KEY, IvmcEnv
 from lerobot_ivmc.evaluation.compatibility import (
     EnvMismatchError,
     check_policy_matches_env,
-    one_line_errors,
-    plugin_error_message,
 )
 from lerobot_ivmc.policies import BVMCConfig, BVMCPolicy, VMCConfig
+from lerobot_ivmc.scripts.errors import run_cli
 
 
 def _policy_config(image_size: int = 64, cls: type[VMCConfig] = VMCConfig) -> VMCConfig:
@@ -60,25 +57,9 @@ def test_the_check_leaves_the_env_config_alone():
     assert env_cfg.features == before and env_cfg.image_size == 32
 
 
-def _parse_eval(args: list[str]) -> EvalPipelineConfig:
-    return draccus.parse(EvalPipelineConfig, args=args)
-
-
-def test_a_plugin_config_error_ends_the_cli_in_one_line(capsys):
-    with pytest.raises(SystemExit) as exit_info, one_line_errors("lerobot-ivmc-eval"):
-        _parse_eval(["--env.type=ivmc", "--env.image_size=5000", "--policy.type=vmc"])
+def test_the_cli_ends_on_a_mismatch_with_one_line(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        run_cli(lambda: check_policy_matches_env(_policy_config(64), IvmcEnv(task="push", image_size=32)))
     assert exit_info.value.code == 2
-    assert capsys.readouterr().err == (
-        "lerobot-ivmc-eval: error: env.image_size must be a positive integer number of pixels, at most 2048, "
-        "got 5000.\n"
-    )
-
-
-def test_other_errors_keep_their_traceback():
-    with pytest.raises(KeyError), one_line_errors("lerobot-ivmc-eval"):
-        raise KeyError("a bug")
-    try:
-        raise ValueError("Action must be finite")  # raised here, not while parsing a plugin config
-    except ValueError as error:
-        assert plugin_error_message(error) is None
-    assert plugin_error_message(EnvMismatchError("x\n  y")) == "x y"
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("error: This vmc checkpoint does not fit the ivmc env")

@@ -10,6 +10,7 @@ from torch import nn
 
 from lerobot_ivmc.policies import BVMCConfig, BVMCPolicy, VMCConfig, VMCPolicy
 from lerobot_ivmc.policies.checkpoint_checks import CheckpointError
+from lerobot_ivmc.scripts.errors import run_cli
 
 POLICIES = [(VMCConfig, VMCPolicy), (BVMCConfig, BVMCPolicy)]
 
@@ -87,3 +88,13 @@ def test_strictness_follows_the_model_s_own_optional_submodules(tmp_path):
     WithOptionalHead.with_head = True
     with pytest.raises(CheckpointError, match="missing keys head.bias, head.weight"):
         WithOptionalHead.from_pretrained(tmp_path / "without")
+
+
+def test_the_cli_ends_on_a_damaged_checkpoint_with_one_line(tmp_path, capsys):
+    model_file, _ = _saved(tmp_path, VMCConfig, VMCPolicy)
+    model_file.write_bytes(model_file.read_bytes()[:100])
+    with pytest.raises(SystemExit) as exit_info:
+        run_cli(lambda: VMCPolicy.from_pretrained(tmp_path))
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"error: Checkpoint file {model_file} is not a readable")
