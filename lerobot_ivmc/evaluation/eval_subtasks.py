@@ -27,6 +27,7 @@ from lerobot.utils.import_utils import register_third_party_plugins
 from lerobot.utils.random_utils import set_seed
 
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
+from lerobot_ivmc.evaluation.compatibility import check_policy_matches_env
 from lerobot_ivmc.evaluation.fig3 import plot_success_by_uncertainty, success_by_uncertainty_bins
 from lerobot_ivmc.evaluation.loading import load_policy
 from lerobot_ivmc.evaluation.metrics import aggregate_milestones
@@ -126,6 +127,7 @@ def evaluate(cfg: IvmcEvalConfig, ignore_stored_threshold: bool = False) -> dict
     if cfg.seed is None:
         raise ValueError("Pass --seed: episodes are matched to their subtask records through seeded resets.")
     check_recovery_request(cfg)
+    check_policy_matches_env(cfg.policy, cfg.env)
     output_dir = Path(cfg.output_dir)
     if (output_dir / EVAL_INFO_FILE).exists():
         raise FileExistsError(

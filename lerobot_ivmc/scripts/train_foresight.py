@@ -25,6 +25,7 @@ from lerobot.utils.random_utils import set_seed
 
 from lerobot_ivmc.envs import make_task_env
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
+from lerobot_ivmc.evaluation.compatibility import check_policy_matches_env
 from lerobot_ivmc.evaluation.loading import load_policy
 from lerobot_ivmc.recovery.foresight_data import collect_distillation_data, load_shards
 from lerobot_ivmc.recovery.foresight_ranking import measure_action_ranking
@@ -69,6 +70,7 @@ def check_inputs(cfg: ForesightPipelineConfig) -> Path:
         )
     if cfg.seed is None:
         raise ValueError("Pass --seed: it fixes the distillation scenes and sampled actions.")
+    check_policy_matches_env(cfg.policy, cfg.env)
     checkpoint = Path(cfg.output_dir) / CHECKPOINT_DIR
     if checkpoint.exists():
         raise FileExistsError(

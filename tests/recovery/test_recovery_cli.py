@@ -116,7 +116,8 @@ def test_each_mode_runs_end_to_end(mode: str, tiny_recovery_checkpoint: Path, tm
     assert (out / "uncertainty_vs_success.png").stat().st_size > 0
     if mode == "none":
         assert (
-            info["recovery"]["num_recoveries"] == 0 and info["recovery"]["threshold_source"] == "checkpoint (argmax)"
+            info["recovery"]["num_recoveries"] == 0
+            and info["recovery"]["threshold_source"] == "checkpoint (argmax)"
         )
     else:
         assert info["recovery"]["num_recoveries"] > 0
@@ -147,6 +148,7 @@ def test_bad_requests_say_what_to_do(
             ["--recovery.mode=rand", "--env.task=push"],
             "picked on task 'pick_place'",
         ),
+        (tiny_recovery_checkpoint, ["--env.image_size=32"], "pass --env.image_size=64"),
     ]
     vmc = tmp_path / "vmc"
     shutil.copytree(tiny_bvmc, vmc)
@@ -172,3 +174,30 @@ def test_cli_ends_with_a_one_line_message(tiny_recovery_checkpoint: Path, tmp_pa
     assert exit_info.value.code == 2
     last_line = capsys.readouterr().err.strip().splitlines()[-1]
     assert last_line.startswith("error: --recovery.mode must be one of ('none', 'rand', 'init', 'min_unc')")
+
+
+def test_threshold_method_round_trips_into_checkpoint_and_eval(
+    tiny_recovery_checkpoint: Path, tmp_path: Path
+):
+    # The tiny policy never succeeds: a conformal threshold (calibrated on successes) is refused clearly.
+    with pytest.raises(ValueError, match="needs at least 1 successful calibration episodes; got 0"):
+        run_main(
+            "lerobot-ivmc-threshold",
+            f"--policy.path={tiny_recovery_checkpoint}",
+            *ENV_FLAGS,
+            "--env.split=val",
+            "--eval.n_episodes=2",
+            "--eval.batch_size=2",
+            "--seed=0",
+            "--method=conformal",
+            "--alpha=0.5",
+            f"--output_dir={tmp_path / 'conformal'}",
+        )
+    assert not (tmp_path / "conformal" / "pretrained_model").exists()
+    checkpoint = tmp_path / "checkpoint"
+    shutil.copytree(tiny_recovery_checkpoint, checkpoint)
+    record = ThresholdRecord.load(checkpoint)
+    ThresholdRecord(**{**record.__dict__, "method": "conformal", "alpha": 0.5}).save(checkpoint)
+    info = evaluate(checkpoint, tmp_path / "eval", "--recovery.mode=rand", "--recovery.max_videos=0")
+    assert info["recovery"]["threshold_source"] == "checkpoint (conformal, alpha=0.5)"
+    assert info["recovery"]["threshold"] == record.threshold
