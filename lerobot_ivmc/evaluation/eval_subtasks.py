@@ -160,6 +160,9 @@ def evaluate(cfg: IvmcEvalConfig, ignore_stored_threshold: bool = False) -> dict
         )
         if video_store is not None:
             video_store.had_recovery = lambda j, b: bool(controller.traces[b].events[j])
+    # Seed again once everything is built: the Monte Carlo masks then do not depend on how many random
+    # draws building the policy took (e.g. a checkpoint with or without a foresight head).
+    set_seed(cfg.seed)
     with torch.no_grad():
         info = eval_policy(
             env,

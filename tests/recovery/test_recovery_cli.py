@@ -201,3 +201,13 @@ def test_threshold_method_round_trips_into_checkpoint_and_eval(
     info = evaluate(checkpoint, tmp_path / "eval", "--recovery.mode=rand", "--recovery.max_videos=0")
     assert info["recovery"]["threshold_source"] == "checkpoint (conformal, alpha=0.5)"
     assert info["recovery"]["threshold"] == record.threshold
+
+
+def test_a_foresight_head_does_not_change_the_rollout(tiny_bvmc: Path, tiny_foresight: Path, tmp_path: Path):
+    """Without recovery, the checkpoint with the head acts exactly as the one it was distilled from."""
+    flags = ["--recovery.mode=none"]
+    a = evaluate(tiny_bvmc, tmp_path / "without", *flags)
+    b = evaluate(tiny_foresight / "pretrained_model", tmp_path / "with", *flags)
+    assert [e["max_uncertainty"] for e in a["per_episode"]] == [
+        e["max_uncertainty"] for e in b["per_episode"]
+    ]
