@@ -137,12 +137,7 @@ def plot_detection(
     ax.plot([0, 1], [0, 1], color="grey", ls=":", lw=1)
     ax.set_xlabel("false-positive rate (successes flagged)")
     ax.set_ylabel("true-positive rate (failures flagged)")
-    ax.set_title(title, fontsize=9)
-    ax.legend(fontsize=8, loc="lower right")
-    fig.tight_layout()
-    paths.append(folder / "roc.png")
-    fig.savefig(paths[-1])
-    plt.close(fig)
+    paths.append(_save(fig, ax, title, folder / "roc.png", legend_loc="lower right"))
 
     fig, ax = plt.subplots(figsize=(6, 3.4), dpi=120)
     for trace, f in zip(traces, failed, strict=True):
@@ -153,12 +148,7 @@ def plot_detection(
     ax.plot([], [], color="tab:red", label="failures")
     ax.set_xlabel("step")
     ax.set_ylabel("sliding-window sum of uncertainty")
-    ax.set_title(title, fontsize=9)
-    ax.legend(fontsize=7, loc="upper left")
-    fig.tight_layout()
-    paths.append(folder / "score_traces.png")
-    fig.savefig(paths[-1])
-    plt.close(fig)
+    paths.append(_save(fig, ax, title, folder / "score_traces.png", legend_loc="upper left"))
 
     if sweep:
         fig, ax = plt.subplots(figsize=(4, 3.4), dpi=120)
@@ -169,10 +159,16 @@ def plot_detection(
         ax.plot(alphas, [100 * (1 - a) for a in alphas], color="grey", ls=":", label="1 - alpha")
         ax.set_xlabel("alpha (conformal false-alarm bound)")
         ax.set_ylabel("[%]")
-        ax.set_title(title, fontsize=9)
-        ax.legend(fontsize=8)
-        fig.tight_layout()
-        paths.append(folder / "tpr_tnr_vs_alpha.png")
-        fig.savefig(paths[-1])
-        plt.close(fig)
+        paths.append(_save(fig, ax, title, folder / "tpr_tnr_vs_alpha.png", legend_loc="best"))
     return paths
+
+
+def _save(fig, ax, title: str, path: Path, legend_loc: str) -> Path:
+    import matplotlib.pyplot as plt
+
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=7, loc=legend_loc)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path

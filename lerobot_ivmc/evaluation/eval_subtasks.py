@@ -23,7 +23,6 @@ from lerobot.configs import parser
 from lerobot.configs.eval import EvalPipelineConfig
 from lerobot.scripts.lerobot_eval import eval_policy
 from lerobot.utils.constants import OBS_ENV_STATE
-from lerobot.utils.import_utils import register_third_party_plugins
 from lerobot.utils.random_utils import set_seed
 
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
@@ -42,7 +41,7 @@ from lerobot_ivmc.evaluation.traces import TRACES_FILE, episode_traces, save_tra
 from lerobot_ivmc.recovery.config import RecoveryConfig
 from lerobot_ivmc.recovery.controller import IntrospectiveController
 from lerobot_ivmc.recovery.threshold import ThresholdRecord, resolve_threshold
-from lerobot_ivmc.scripts.errors import run_cli
+from lerobot_ivmc.scripts.errors import cli_main
 
 logger = logging.getLogger(__name__)
 
@@ -273,9 +272,7 @@ def eval_main(cfg: IvmcEvalConfig) -> dict:
 
 
 def main() -> None:
-    logging.basicConfig(level=logging.INFO)
-    register_third_party_plugins()
-    run_cli(eval_main)
+    cli_main(eval_main)
 
 
 if __name__ == "__main__":

@@ -102,10 +102,8 @@ def trace_panel(episode: dict, threshold: float, width: int, height: int) -> tup
     fig.canvas.draw()
     image = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
     to_pixel = ax.transData.transform
-    fig_height = fig.canvas.get_width_height()[1]
     x_of_step = {int(s): int(round(to_pixel((s, 0))[0])) for s in range(len(steps) + 1)}
     plt.close(fig)
-    del fig_height
     return image, lambda step: x_of_step[min(step, len(steps))]
 
 

@@ -14,11 +14,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import torch
-from lerobot.policies.pretrained import PreTrainedPolicy
 from lerobot.utils.constants import OBS_ENV_STATE
 from torch import Tensor
 
-from lerobot_ivmc.policies.bvmc.configuration_bvmc import BVMCConfig
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy, MCPrediction
 from lerobot_ivmc.recovery.config import RecoveryConfig
 from lerobot_ivmc.recovery.manoeuvres import (
@@ -30,6 +28,7 @@ from lerobot_ivmc.recovery.manoeuvres import (
     MoveToInit,
     RandomMoves,
 )
+from lerobot_ivmc.recovery.rollout_wrapper import BVMCRolloutWrapper
 from lerobot_ivmc.recovery.trigger import RecoveryTrigger
 
 
@@ -70,7 +69,7 @@ def write_memory_row(memory: tuple[Tensor, ...], row: int, values: tuple[Tensor,
         tensor[row] = value
 
 
-class IntrospectiveController(PreTrainedPolicy):
+class IntrospectiveController(BVMCRolloutWrapper):
     """Bayesian VMC with Algorithm 1's failure recovery.
 
     Args:
@@ -83,7 +82,6 @@ class IntrospectiveController(PreTrainedPolicy):
         seed: seeds the random draws of rand and init.
     """
 
-    config_class = BVMCConfig
     name = "bvmc_introspective"
 
     def __init__(
@@ -95,12 +93,11 @@ class IntrospectiveController(PreTrainedPolicy):
         env_state_stats: tuple[Tensor, Tensor],
         seed: int = 0,
     ):
-        super().__init__(policy.config)
+        super().__init__(policy)
         if recovery.mode != "none" and threshold is None:
             raise ValueError(f"Recovery mode {recovery.mode!r} needs a threshold.")
         if recovery.mode == "min_unc" and policy.foresight is None:
             policy.foresee(torch.zeros(1, policy.config.lstm_dim), torch.zeros(1, 1, 4))  # raises, says how
-        self.policy = policy
         self.recovery = recovery
         # Without recovery the trigger still keeps the window sums for the traces, but never fires.
         self.threshold = np.inf if recovery.mode == "none" or threshold is None else float(threshold)
@@ -110,21 +107,10 @@ class IntrospectiveController(PreTrainedPolicy):
         self.traces: list[BatchTrace] = []
         self._batch_size: int | None = None
 
-    # -------------------------------------------------------------------------- PreTrainedPolicy contract
-    def get_optim_params(self) -> list[dict]:
-        raise NotImplementedError("The controller runs a trained policy; train the BVMCPolicy itself.")
-
-    def forward(self, batch: dict[str, Tensor]) -> tuple[Tensor, dict]:
-        raise NotImplementedError("The controller runs a trained policy; train the BVMCPolicy itself.")
-
     def reset(self) -> None:
         """Start a batch of episodes (LeRobot's `rollout` calls this once per batch)."""
-        self.policy.reset()
+        super().reset()
         self._batch_size = None
-
-    @torch.no_grad()
-    def predict_action_chunk(self, batch: dict[str, Tensor], **kwargs) -> Tensor:
-        return self.select_action(batch)[:, None]
 
     # ---------------------------------------------------------------------------------------- Algorithm 1
     def _start_batch(self, batch_size: int, grip: np.ndarray) -> None:

@@ -18,18 +18,17 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from lerobot.policies.pretrained import PreTrainedPolicy
 from lerobot.scripts.lerobot_eval import rollout
 from torch import Tensor
 from tqdm import tqdm
 
-from lerobot_ivmc.policies.bvmc.configuration_bvmc import BVMCConfig
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
+from lerobot_ivmc.recovery.rollout_wrapper import BVMCRolloutWrapper
 
 SPEC_FILE = "spec.json"
 
 
-class SampledActionRecorder(PreTrainedPolicy):
+class SampledActionRecorder(BVMCRolloutWrapper):
     """Executes one Monte Carlo sample per step (drawn uniformly among the S) and records e_t, a_t, u_t.
 
     Args:
@@ -37,30 +36,18 @@ class SampledActionRecorder(PreTrainedPolicy):
         seed: seeds the choice of the executed sample.
     """
 
-    config_class = BVMCConfig
     name = "bvmc_distillation"
 
     def __init__(self, policy: BVMCPolicy, seed: int):
-        super().__init__(policy.config)
-        self.policy = policy
+        super().__init__(policy)
         self.generator = torch.Generator().manual_seed(seed)
         self.embeddings: list[Tensor] = []
         self.actions: list[Tensor] = []
         self.uncertainties: list[Tensor] = []
 
-    def get_optim_params(self) -> list[dict]:
-        raise NotImplementedError("Records a trained policy; nothing to train.")
-
-    def forward(self, batch: dict[str, Tensor]) -> tuple[Tensor, dict]:
-        raise NotImplementedError("Records a trained policy; nothing to train.")
-
     def reset(self) -> None:
-        self.policy.reset()
+        super().reset()
         self.embeddings, self.actions, self.uncertainties = [], [], []
-
-    @torch.no_grad()
-    def predict_action_chunk(self, batch: dict[str, Tensor], **kwargs) -> Tensor:
-        return self.select_action(batch)[:, None]
 
     @torch.no_grad()
     def select_action(self, batch: dict[str, Tensor], **kwargs) -> Tensor:

@@ -19,7 +19,7 @@ from lerobot.configs import parser
 from lerobot_ivmc.evaluation.detection import auroc, conformal_sweep, metrics_at_threshold, plot_detection
 from lerobot_ivmc.evaluation.traces import TRACES_FILE, load_traces
 from lerobot_ivmc.recovery.threshold import ThresholdRecord, conformal_threshold
-from lerobot_ivmc.scripts.errors import run_cli
+from lerobot_ivmc.scripts.errors import cli_main
 
 logger = logging.getLogger(__name__)
 
@@ -129,8 +129,7 @@ def detect_main(cfg: DetectionConfig) -> dict:
 
 
 def main() -> None:
-    logging.basicConfig(level=logging.INFO)
-    run_cli(detect_main)
+    cli_main(detect_main)
 
 
 if __name__ == "__main__":

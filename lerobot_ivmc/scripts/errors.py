@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import os
 import sys
 from collections.abc import Callable
@@ -27,3 +28,12 @@ def run_cli(main: Callable[[], object]) -> None:
             raise
         print(f"error: {root_message(error)}", file=sys.stderr)
         sys.exit(2)
+
+
+def cli_main(main: Callable[[], object]) -> None:
+    """A console entry point: logging, LeRobot's plugin discovery, then `run_cli(main)`."""
+    from lerobot.utils.import_utils import register_third_party_plugins
+
+    logging.basicConfig(level=logging.INFO)
+    register_third_party_plugins()
+    run_cli(main)

@@ -17,7 +17,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from lerobot.configs import parser
-from lerobot.utils.import_utils import register_third_party_plugins
 
 from lerobot_ivmc.evaluation.eval_subtasks import IvmcEvalConfig, evaluate
 from lerobot_ivmc.recovery.threshold import (
@@ -26,7 +25,7 @@ from lerobot_ivmc.recovery.threshold import (
     argmax_threshold,
     conformal_threshold,
 )
-from lerobot_ivmc.scripts.errors import run_cli
+from lerobot_ivmc.scripts.errors import cli_main
 
 logger = logging.getLogger(__name__)
 
@@ -118,9 +117,7 @@ def threshold_main(cfg: ThresholdPipelineConfig) -> ThresholdRecord:
 
 
 def main() -> None:
-    logging.basicConfig(level=logging.INFO)
-    register_third_party_plugins()
-    run_cli(threshold_main)
+    cli_main(threshold_main)
 
 
 if __name__ == "__main__":

@@ -20,7 +20,6 @@ import torch
 from lerobot.configs import parser
 from lerobot.configs.eval import EvalPipelineConfig
 from lerobot.envs.factory import make_env
-from lerobot.utils.import_utils import register_third_party_plugins
 from lerobot.utils.random_utils import set_seed
 
 from lerobot_ivmc.envs import make_task_env
@@ -35,7 +34,7 @@ from lerobot_ivmc.recovery.foresight_training import (
     split_by_trajectory,
     train_foresight,
 )
-from lerobot_ivmc.scripts.errors import run_cli
+from lerobot_ivmc.scripts.errors import cli_main
 
 logger = logging.getLogger(__name__)
 
@@ -173,9 +172,7 @@ def foresight_main(cfg: ForesightPipelineConfig) -> dict:
 
 
 def main() -> None:
-    logging.basicConfig(level=logging.INFO)
-    register_third_party_plugins()
-    run_cli(foresight_main)
+    cli_main(foresight_main)
 
 
 if __name__ == "__main__":
