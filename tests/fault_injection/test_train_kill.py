@@ -1,0 +1,50 @@
+"""Fault injection: `lerobot-ivmc-train` SIGKILLed after a checkpoint resumes from it and finishes the run."""
+
+import json
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "policies"))  # policy_helpers: the tiny dataset
+
+from policy_helpers import TINY_REPO_ID, build_expert_dataset  # noqa: E402
+
+STEPS = 40
+
+
+def _train(out: Path, dataset: Path, *extra: str) -> list[str]:
+    script = Path(sys.executable).with_name("lerobot-ivmc-train")
+    return [
+        str(script if script.exists() else shutil.which("lerobot-ivmc-train")),
+        "--policy.type=bvmc", f"--dataset.repo_id={TINY_REPO_ID}", f"--dataset.root={dataset}",
+        "--policy.device=cpu", "--policy.push_to_hub=false", "--wandb.enable=false", "--eval_freq=0",
+        f"--steps={STEPS}", "--save_freq=5", "--batch_size=2", "--num_workers=0", "--log_freq=1",
+        f"--output_dir={out}", *extra,
+    ]  # fmt: skip
+
+
+def test_killed_training_resumes_from_its_last_checkpoint(tmp_path: Path) -> None:
+    dataset = build_expert_dataset(tmp_path / "data", num_episodes=1, max_steps=20)
+    out = tmp_path / "train"
+    process = subprocess.Popen(_train(out, dataset), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    first = out / "checkpoints" / "000005" / "pretrained_model" / "model.safetensors"
+    deadline = time.monotonic() + 300
+    while not first.exists() and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.2)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    assert first.exists(), "the run died before its first checkpoint"
+    assert not (out / "checkpoints" / f"{STEPS:06d}").exists(), "killed too late to test a resume"
+
+    config = out / "checkpoints" / "last" / "pretrained_model" / "train_config.json"
+    result = subprocess.run(
+        [_train(out, dataset)[0], f"--config_path={config}", "--resume=true"],
+        capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr[-3000:]
+    final = out / "checkpoints" / f"{STEPS:06d}"
+    assert (final / "pretrained_model" / "model.safetensors").exists()
+    assert json.loads((final / "training_state" / "training_step.json").read_text())["step"] == STEPS
