@@ -8,6 +8,7 @@ cursor at the current step: why the robot stopped and what it did.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -98,7 +99,9 @@ def trace_panel(episode: dict, threshold: float, width: int, height: int) -> tup
     ax.set_xlabel("step", fontsize=6)
     ax.tick_params(labelsize=6)
     ax.legend(fontsize=5, loc="upper left", ncol=3)
-    fig.tight_layout(pad=0.3)
+    with warnings.catch_warnings():  # tiny frames (tests) leave no room for the margins; the plot is fine
+        warnings.simplefilter("ignore", UserWarning)
+        fig.tight_layout(pad=0.3)
     fig.canvas.draw()
     image = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
     to_pixel = ax.transData.transform
