@@ -73,11 +73,6 @@ def make_recorded_vector_env(
     )
 
 
-def collect_per_env(env: gym.vector.SyncVectorEnv, name: str) -> list[list]:
-    """A recorder attribute (list per seeded episode) of every sub-env."""
-    return env.get_attr(name)
-
-
 def episode_order(per_env: list[list], n_episodes: int) -> list:
     """Per-env records in `eval_policy`'s episode order (batch-major, then sub-env)."""
     n_batches = len(per_env[0])
@@ -87,7 +82,7 @@ def episode_order(per_env: list[list], n_episodes: int) -> list:
 
 def collect_episode_milestones(env: gym.vector.SyncVectorEnv, n_episodes: int) -> list[dict[str, bool]]:
     """Milestones of the evaluated episodes in `eval_policy`'s order (batch-major, then sub-env)."""
-    return episode_order(collect_per_env(env, "episode_milestones"), n_episodes)
+    return episode_order(env.get_attr("episode_milestones"), n_episodes)
 
 
 def env_state_stats(preprocessor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -174,7 +169,7 @@ def evaluate(cfg: IvmcEvalConfig, ignore_stored_threshold: bool = False) -> dict
         )
     n = cfg.eval.n_episodes
     milestones = collect_episode_milestones(env, n)
-    lengths_per_env = collect_per_env(env, "episode_lengths")
+    lengths_per_env = env.get_attr("episode_lengths")
     env.close()
     for episode, flags in zip(info["per_episode"], milestones, strict=True):
         episode["subtasks"] = flags

@@ -96,8 +96,8 @@ class IntrospectiveController(BVMCRolloutWrapper):
         super().__init__(policy)
         if recovery.mode != "none" and threshold is None:
             raise ValueError(f"Recovery mode {recovery.mode!r} needs a threshold.")
-        if recovery.mode == "min_unc" and policy.foresight is None:
-            policy.foresee(torch.zeros(1, policy.config.lstm_dim), torch.zeros(1, 1, 4))  # raises, says how
+        if recovery.mode == "min_unc":
+            policy.require_foresight()
         self.recovery = recovery
         # Without recovery the trigger still keeps the window sums for the traces, but never fires.
         self.threshold = np.inf if recovery.mode == "none" or threshold is None else float(threshold)
@@ -189,7 +189,8 @@ class IntrospectiveController(BVMCRolloutWrapper):
                     self.manoeuvres[row] = None
 
         keep_fifo = self.recovery.mode == "min_unc"
-        memory_before = self.policy.get_memory() if keep_fifo else None
+        # The live memory, not a copy: `sample` replaces it with new tensors, and `memory_row` copies rows.
+        memory_before = self.policy._memory if keep_fifo else None
         if keep_fifo and memory_before is None:
             memory_before = self.policy.initial_memory(batch_size)
         prediction = self.policy.sample(batch)

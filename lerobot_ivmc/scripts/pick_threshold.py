@@ -74,9 +74,6 @@ def pick(cfg: ThresholdPipelineConfig) -> ThresholdRecord:
     checkpoint = check_inputs(cfg)
     cfg.recovery.window = cfg.recovery.window or DEFAULT_WINDOW
     source = Path(cfg.policy.pretrained_path)
-    stale = ThresholdRecord.load(source)
-    if stale is not None and stale.window != cfg.recovery.window:
-        cfg.recovery.threshold = None  # the copy gets a new record: ignore the old one's window
     info = evaluate(cfg, ignore_stored_threshold=True)
     episodes = info["per_episode"]
     scores = [e["max_uncertainty"] for e in episodes]

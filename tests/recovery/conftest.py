@@ -2,54 +2,15 @@
 
 from __future__ import annotations
 
-import shutil
-import subprocess
 import sys
 from pathlib import Path
-from unittest import mock
 
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "policies"))  # policy_helpers: configs, tiny dataset
 
 from policy_helpers import TINY_REPO_ID, build_expert_dataset  # noqa: E402
-
-# Short episodes keep the end-to-end runs to seconds; S = 8 Monte Carlo samples.
-EPISODE_LENGTH = 30
-ENV_FLAGS = [
-    "--env.type=ivmc",
-    "--env.task=pick_place",
-    f"--env.episode_length={EPISODE_LENGTH}",
-    "--env.render_size=64",
-]
-
-
-def console_script(name: str) -> str:
-    script = Path(sys.executable).with_name(name)
-    return str(script) if script.exists() else shutil.which(name)
-
-
-def run_cli(name: str, *args: str) -> subprocess.CompletedProcess:
-    """Run a console script in a subprocess and check it succeeds."""
-    result = subprocess.run([console_script(name), *args], capture_output=True, text=True, timeout=600)
-    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
-    return result
-
-
-def run_main(name: str, *args: str):
-    """Run one of the plugin's draccus CLIs in this process (as its console script would, minus the
-    interpreter start-up), with `args` as its command line; exceptions propagate."""
-    from lerobot_ivmc.evaluation.eval_subtasks import eval_main
-    from lerobot_ivmc.scripts.pick_threshold import threshold_main
-    from lerobot_ivmc.scripts.train_foresight import foresight_main
-
-    mains = {
-        "lerobot-ivmc-eval": eval_main,
-        "lerobot-ivmc-foresight": foresight_main,
-        "lerobot-ivmc-threshold": threshold_main,
-    }
-    with mock.patch.object(sys, "argv", [name, *args]):
-        return mains[name]()
+from recovery_helpers import ENV_FLAGS, run_cli, run_main  # noqa: E402
 
 
 @pytest.fixture(scope="session")

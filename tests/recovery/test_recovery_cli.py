@@ -13,7 +13,7 @@ from unittest import mock
 import numpy as np
 import pytest
 import torch
-from conftest import ENV_FLAGS, EPISODE_LENGTH, run_main
+from recovery_helpers import ENV_FLAGS, EPISODE_LENGTH, run_main
 
 from lerobot_ivmc.evaluation.traces import load_traces
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy

@@ -90,14 +90,19 @@ class BVMCPolicy(VMCPolicy):
         Returns:
             (B, S) predicted uncertainty at t + 1.
         """
+        foresight = self.require_foresight()
+        expanded = embedding[:, None].expand(-1, actions.shape[1], -1)
+        return from_log_uncertainty(foresight(expanded, actions))
+
+    def require_foresight(self) -> UncertaintyForesight:
+        """The foresight head; a ValueError naming the command that trains one if the checkpoint has none."""
         if self.foresight is None:
             raise ValueError(
                 "This bvmc checkpoint has no uncertainty foresight head: train one with "
                 "`lerobot-ivmc-foresight --policy.path=<this checkpoint> ...` and use the checkpoint it "
                 "writes."
             )
-        expanded = embedding[:, None].expand(-1, actions.shape[1], -1)
-        return from_log_uncertainty(self.foresight(expanded, actions))
+        return self.foresight
 
     def _make_head(self, config: BVMCConfig, dataset_meta=None) -> nn.Module:
         if config.dataset_size is None:
