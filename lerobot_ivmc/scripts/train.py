@@ -3,8 +3,11 @@
 Same flags, same training loop, checkpoints and logs as `lerobot-train` (it runs LeRobot's own
 `lerobot_train.main`); the only change is that the dataset `lerobot-train` builds is wrapped in a
 `FrameCache`, so K-frame windows of a small image dataset cost tensor gathers instead of Hugging Face
-`datasets` queries. Use it for image (not video) datasets that fit in memory (a 64x64 frame takes 12 KiB:
-100,000 frames take 1.2 GiB).
+`datasets` queries. It also sets N of Bayesian VMC's concrete dropout regularisers
+(`--policy.dataset_size`, when not given) to the frames actually trained on, so a `--dataset.episodes`
+subset gets its own N (plain `lerobot-train` only sees the whole dataset's metadata: pass
+`--policy.dataset_size` there). Use it for image (not video) datasets that fit in memory (a 64x64 frame
+takes 12 KiB: 100,000 frames take 1.2 GiB).
 
 Example:
     lerobot-ivmc-train --policy.type=bvmc --policy.device=cpu --dataset.repo_id=local/ivmc_pick_place \\
@@ -20,10 +23,13 @@ from lerobot_ivmc.datasets.frame_cache import FrameCache
 
 
 def make_cached_dataset(cfg) -> FrameCache:
-    """LeRobot's `make_dataset(cfg)`, its frames decoded into memory."""
+    """LeRobot's `make_dataset(cfg)`, its frames decoded into memory; fills N from the frames trained on."""
     if cfg.dataset.streaming:
         raise ValueError("lerobot-ivmc-train caches a local dataset; drop --dataset.streaming=true.")
-    return FrameCache(factory.make_dataset(cfg))
+    dataset = FrameCache(factory.make_dataset(cfg))
+    if hasattr(cfg.policy, "dataset_size") and cfg.policy.dataset_size is None:
+        cfg.policy.dataset_size = dataset.num_frames
+    return dataset
 
 
 def main() -> None:

@@ -27,11 +27,22 @@ def console_script(name: str) -> str:
     return str(script) if script.exists() else shutil.which(name)
 
 
+SEQUENCE = ("--policy.training_mode=sequence", "--policy.chunk_length=10")
+
+
 @pytest.mark.parametrize(
-    "command, policy_type",
-    [("lerobot-train", "vmc"), ("lerobot-train", "bvmc"), ("lerobot-ivmc-train", "bvmc")],
+    "command, policy_type, extra",
+    [
+        ("lerobot-train", "vmc", ()),
+        ("lerobot-train", "bvmc", ()),
+        ("lerobot-ivmc-train", "bvmc", ()),
+        ("lerobot-train", "vmc", SEQUENCE),
+        ("lerobot-ivmc-train", "bvmc", SEQUENCE),
+    ],
 )
-def test_train_then_load_and_act(command: str, policy_type: str, tiny_dataset: Path, tmp_path: Path) -> None:
+def test_train_then_load_and_act(
+    command: str, policy_type: str, extra: tuple[str, ...], tiny_dataset: Path, tmp_path: Path
+) -> None:
     out = tmp_path / "train"
     cmd = [
         console_script(command),
@@ -48,6 +59,7 @@ def test_train_then_load_and_act(command: str, policy_type: str, tiny_dataset: P
         "--num_workers=0",
         "--log_freq=1",
         f"--output_dir={out}",
+        *extra,
     ]
     result = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
@@ -58,6 +70,8 @@ def test_train_then_load_and_act(command: str, policy_type: str, tiny_dataset: P
 
     policy = get_policy_class(policy_type).from_pretrained(checkpoint)
     assert policy.config.type == policy_type
+    # A sequence-trained policy rolls out with the carried memory it was trained with.
+    assert policy.config.rollout_memory == ("trajectory" if extra else "window")
     if policy_type == "bvmc":
         assert policy.config.dataset_size == 60, "N for the regularisers comes from the dataset"
         policy.config.num_samples = 5
@@ -75,3 +89,27 @@ def test_train_then_load_and_act(command: str, policy_type: str, tiny_dataset: P
     assert actions.shape == (1, 4, 4)
     assert torch.isfinite(actions).all()
     assert set(actions[..., 3].flatten().tolist()) <= {-1.0, 0.0, 1.0}
+
+
+def test_regulariser_n_counts_only_the_episodes_trained_on(tiny_dataset: Path, tmp_path: Path) -> None:
+    out = tmp_path / "train"
+    cmd = [
+        console_script("lerobot-ivmc-train"),
+        "--policy.type=bvmc",
+        f"--dataset.repo_id={TINY_REPO_ID}",
+        f"--dataset.root={tiny_dataset}",
+        "--dataset.episodes=[1]",
+        "--policy.device=cpu",
+        "--policy.push_to_hub=false",
+        "--wandb.enable=false",
+        "--eval_freq=0",
+        "--steps=1",
+        "--save_freq=1",
+        "--batch_size=2",
+        "--num_workers=0",
+        f"--output_dir={out}",
+    ]
+    result = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    policy = get_policy_class("bvmc").from_pretrained(out / "checkpoints" / "000001" / "pretrained_model")
+    assert policy.config.dataset_size == 30, "one 30-frame episode trained on, of the dataset's 60 frames"

@@ -5,8 +5,6 @@ as one batched pass; the executed action is the mean of the samples and the unce
 the covariance of the transformed delta-EE samples (the paper's Eqs. (weighted-concat), (unc-tr-cov)).
 """
 
-from __future__ import annotations
-
 import logging
 from dataclasses import dataclass
 

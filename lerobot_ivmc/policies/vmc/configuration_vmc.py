@@ -16,6 +16,7 @@ ACTION_DIM = DELTA_EE_DIM + 1
 # Layout of `observation.environment_state`, the auxiliary targets: end-effector (3) then object (3) position.
 AUX_DIM = 6
 ROLLOUT_MEMORY_MODES = ("trajectory", "window")
+TRAINING_MODES = ("sequence", "window")
 # Gripper commands close / no-op / open; class index = command + 1.
 GRIPPER_COMMANDS = (-1.0, 0.0, 1.0)
 
@@ -26,8 +27,9 @@ class VMCConfig(PreTrainedConfig):
     """VMC: CNN over the RGB frame, tiled proprioception, LSTM, fully connected layers, four heads.
 
     Args:
-        n_obs_steps: K, the frames of history fed at training time (the paper: K = 4). Windows that reach
-            before an episode's start are padded by LeRobot; padded steps leave the LSTM state untouched.
+        n_obs_steps: K, the frames of a window in window training and "window" rollout memory (the paper:
+            K = 4). Windows that reach before an episode's start are padded by LeRobot; padded steps leave the
+            LSTM state untouched.
         normalization_mapping: normalisation per feature type. ACTION must stay IDENTITY: its last
             dimension is a class label (gripper close / no-op / open), which mean/std would mangle.
         image_key: the camera to use; None picks the only VISUAL input feature.
@@ -35,13 +37,20 @@ class VMCConfig(PreTrainedConfig):
         lstm_dim: LSTM width, also the size of the embedding e_t.
         fc_dim: width of the fully connected layers after the LSTM.
         num_fc_layers: #fc, fully connected layers after the LSTM (the paper: 1 or 2).
-        rollout_memory: how the LSTM memory runs at rollout. "window" (default): the memory is the state
-            representations of the last K frames, kept along the trajectory and cleared by `reset()`; at
-            every step the LSTM re-runs from zero memory over them, exactly as in training on K-frame windows.
-            "trajectory" (the paper's wording): one LSTM step per control step, the (h, c) memory carried
-            along the whole episode. A policy trained on K-frame windows from zero memory never saw a memory
-            older than K steps, and at rollout its carried memory drifts out of distribution (measured: VMC,
-            K = 4, 12,000 steps, 20 validation scenes: reach 35% carried vs 95% with "window"; README).
+        training_mode: what one training sample is. "sequence": a chunk of `chunk_length` consecutive frames
+            of one demo, from a frame to at most the episode's end; the LSTM runs over the chunk from zero
+            memory at its first frame (a chunk starting at frame 0 carries it from the episode start), each
+            frame goes through the CNN once, and every frame's action is a label. "window": the K frames up to
+            a frame, the LSTM from zero memory over them, the last frame's action the only label (each frame
+            goes through the CNN about K times per epoch).
+        chunk_length: frames per chunk in sequence training (up to a whole episode); frames past the episode's
+            end are padded by LeRobot and left out of the CNN and the loss.
+        rollout_memory: how the LSTM memory runs at rollout; None follows `training_mode`. "trajectory" (the
+            paper): one LSTM step per control step, (h, c) carried along the whole episode and cleared by
+            `reset()`, as in sequence training. "window": the memory is the state representations of the last
+            K frames and the LSTM re-runs from zero memory over them at every step, as in window training. A
+            window-trained policy drifts with a carried memory it never saw (measured: VMC, K = 4, 12,000
+            steps, 20 validation scenes: reach 35% carried vs 95% with "window"; README).
         image_shift_pad: training augmentation: each window's frames are shifted together by a random
             offset of up to this many pixels per axis (DrQ / RAD random shift); 0 disables it.
         optimizer_lr: Adam learning rate.
@@ -73,8 +82,10 @@ class VMCConfig(PreTrainedConfig):
     fc_dim: int = 128
     num_fc_layers: int = 1
 
-    # Inference: re-run the K-frame window, as trained (see the docstring for why not the carried memory).
-    rollout_memory: str = "window"
+    # Training samples and rollout memory (see the docstring).
+    training_mode: str = "window"
+    chunk_length: int = 100
+    rollout_memory: str | None = None
 
     # Training augmentation (4 px of 64, as the usual 84 -> 76 random crops of pixel-based imitation).
     image_shift_pad: int = 4
@@ -105,6 +116,15 @@ class VMCConfig(PreTrainedConfig):
                 "scheduler_warmup_steps and scheduler_decay_steps must be >= 0, got "
                 f"{self.scheduler_warmup_steps} and {self.scheduler_decay_steps}."
             )
+        if self.training_mode not in TRAINING_MODES:
+            raise ValueError(f"training_mode must be one of {TRAINING_MODES}, got {self.training_mode!r}.")
+        if self.chunk_length < 1:
+            raise ValueError(
+                f"chunk_length must be >= 1 frame (at most a demo's length, e.g. 100), "
+                f"got {self.chunk_length}."
+            )
+        if self.rollout_memory is None:
+            self.rollout_memory = "trajectory" if self.training_mode == "sequence" else "window"
         if self.rollout_memory not in ROLLOUT_MEMORY_MODES:
             raise ValueError(
                 f"rollout_memory must be one of {ROLLOUT_MEMORY_MODES}, got {self.rollout_memory!r}."
@@ -172,12 +192,14 @@ class VMCConfig(PreTrainedConfig):
 
     @property
     def observation_delta_indices(self) -> list[int]:
+        if self.training_mode == "sequence":
+            return list(range(self.chunk_length))
         return list(range(1 - self.n_obs_steps, 1))
 
     @property
-    def action_delta_indices(self) -> None:
-        # The action of the window's last frame is the target.
-        return None
+    def action_delta_indices(self) -> list[int] | None:
+        # Sequence: every frame's action is a label; window: the last frame's action, the item's own.
+        return list(range(self.chunk_length)) if self.training_mode == "sequence" else None
 
     @property
     def reward_delta_indices(self) -> None:

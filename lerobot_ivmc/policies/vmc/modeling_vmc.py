@@ -6,8 +6,6 @@ CNN over the RGB frame -> spatial feature map concatenated with the tiled propri
 (the paper's Eq. (loss-vmc)). `BVMCPolicy` swaps the fully connected layers for concrete dropout ones.
 """
 
-from __future__ import annotations
-
 import torch
 import torch.nn.functional as F  # noqa: N812
 from lerobot.policies.pretrained import PreTrainedPolicy
@@ -101,6 +99,24 @@ class VisuomotorNet(nn.Module):
                 h, c = torch.where(keep, h, h_new), torch.where(keep, c, c_new)
         return h
 
+    def unroll_sequence(self, s: Tensor) -> Tensor:
+        """Run the LSTM over a chunk from zero memory, carrying (h, c) from step to step.
+
+        The same cell as `step`, as one fused pass (its weights shared): the input projection of all steps
+        is one matrix product.
+
+        Args:
+            s: (B, L, D_s) state representations.
+
+        Returns:
+            (B, L, lstm_dim) embeddings e_t of every step.
+        """
+        cell = self.lstm
+        h0 = s.new_zeros(1, s.shape[0], cell.hidden_size)
+        weights = [cell.weight_ih, cell.weight_hh, cell.bias_ih, cell.bias_hh]
+        # torch.lstm(input, hx, params, has_biases, num_layers, dropout, train, bidirectional, batch_first)
+        return torch.lstm(s, (h0, h0), weights, True, 1, 0.0, self.training, False, True)[0]
+
     def decode(self, e: Tensor, stochastic: bool, noise: list[Tensor] | None = None) -> tuple[Tensor, ...]:
         """Head and decoder: (..., lstm_dim) -> delta EE, gripper logits, EE position, object position.
 
@@ -112,21 +128,33 @@ class VisuomotorNet(nn.Module):
         return out.split([DELTA_EE_DIM, NUM_GRIPPER_CLASSES, AUX_DIM // 2, AUX_DIM // 2], dim=-1)
 
 
-def random_shift(images: Tensor, pad: int) -> Tensor:
-    """Shift each sample's frames by one random offset in [-pad, pad] pixels per axis, edges replicated.
+def random_shift(images: Tensor, pad: int, group: Tensor | None = None) -> Tensor:
+    """Shift frames by random offsets in [-pad, pad] pixels per axis, edges replicated (DrQ / RAD).
 
-    The augmentation of DrQ / RAD: (B, K, C, H, W) -> same shape; the K frames of a window move together.
+    Args:
+        images: (B, K, C, H, W) windows, each window's K frames moved together; or (N, C, H, W) frames
+            with `group`.
+        pad: the largest shift; 0 returns `images` unchanged.
+        group: (N,) index of the sample (0..G-1) each frame belongs to; frames of one sample move together.
+
+    Returns:
+        The shifted frames, shape of `images`.
     """
     if pad == 0:
         return images
-    b, k, c, h, w = images.shape
-    padded = F.pad(images.flatten(1, 2), (pad, pad, pad, pad), mode="replicate")
-    offsets = torch.randint(0, 2 * pad + 1, (2, b), device=images.device)
-    rows = offsets[0, :, None] + torch.arange(h, device=images.device)  # (B, H)
-    cols = offsets[1, :, None] + torch.arange(w, device=images.device)  # (B, W)
-    batch = torch.arange(b, device=images.device)[:, None, None]
-    shifted = padded[batch, :, rows[:, :, None], cols[:, None, :]]  # (B, H, W, K * C)
-    return shifted.permute(0, 3, 1, 2).unflatten(1, (k, c))
+    if group is None:
+        b, k = images.shape[:2]
+        group = torch.arange(b, device=images.device).repeat_interleave(k)
+        return random_shift(images.flatten(0, 1), pad, group).unflatten(0, (b, k))
+    n, _, h, w = images.shape
+    num_groups = int(group.max()) + 1 if n else 0
+    offsets = torch.randint(0, 2 * pad + 1, (2, num_groups), device=images.device)[:, group]  # (2, N)
+    padded = F.pad(images, (pad, pad, pad, pad), mode="replicate")
+    rows = offsets[0, :, None] + torch.arange(h, device=images.device)  # (N, H)
+    cols = offsets[1, :, None] + torch.arange(w, device=images.device)  # (N, W)
+    frame = torch.arange(n, device=images.device)[:, None, None]
+    shifted = padded[frame, :, rows[:, :, None], cols[:, None, :]]  # (N, H, W, C)
+    return shifted.permute(0, 3, 1, 2)
 
 
 def gripper_commands(class_index: Tensor) -> Tensor:
@@ -158,6 +186,7 @@ class VMCPolicy(PreTrainedPolicy):
     def __init__(self, config: VMCConfig, dataset_meta=None, **kwargs):
         super().__init__(config)
         config.validate_features()
+        check_chunk_length(config, dataset_meta)
         self.image_key = config.image_feature_key
         image_shape = tuple(config.image_features[self.image_key].shape)
         state_dim = config.input_features[OBS_STATE].shape[0]
@@ -190,19 +219,37 @@ class VMCPolicy(PreTrainedPolicy):
         self._memory = None if memory is None else tuple(t.clone() for t in memory)
 
     def forward(self, batch: dict[str, Tensor]) -> tuple[Tensor, dict[str, float]]:
-        """Training loss on the last step of each K-frame window.
+        """Training loss: on the last step of each K-frame window, or on every frame of each chunk.
 
         The frames are augmented by `random_shift` (config `image_shift_pad`); `forward` is the training
         loss, so this does not depend on `self.training` (LeRobot 0.4's in-training eval leaves eval mode on).
 
         Args:
-            batch: image (B, K, 3, H, W), `observation.state` (B, K, D), `observation.environment_state`
-                (B, K, 6) (the targets), `action` (B, 4), optional `observation.state_is_pad` (B, K).
-                Tensors without the K axis are taken as K = 1.
+            batch: window training: image (B, K, 3, H, W), `observation.state` (B, K, D),
+                `observation.environment_state` (B, K, 6) (the targets), `action` (B, 4), optional
+                `observation.state_is_pad` (B, K); tensors without the K axis are taken as K = 1. Sequence
+                training: the same keys over a chunk of L frames, `action` (B, L, 4), and
+                `observation.state_is_pad` (B, L) marking the frames past an episode's end.
 
         Returns:
             The total loss and its parts as floats.
         """
+        if self.config.training_mode == "sequence":
+            outputs, action, aux = self._sequence_outputs(batch)
+        else:
+            outputs, action, aux = self._window_outputs(batch)
+        losses = supervised_losses(outputs, action, aux)
+        regularization = self.net.head.regularization()
+        loss = torch.stack(list(losses.values())).sum() + regularization
+        info = {name: value.item() for name, value in losses.items()}
+        info["regularization"] = regularization.item()
+        info["supervised_steps"] = float(action.shape[0])
+        for i, p in enumerate(self.net.head.dropout_probabilities()):
+            info[f"dropout_p_{i}"] = p
+        return loss, info
+
+    def _window_outputs(self, batch: dict[str, Tensor]) -> tuple[tuple[Tensor, ...], Tensor, Tensor]:
+        """Decoded outputs (each (B, ...)) on the last step of each window, with its action and targets."""
         images, state, aux, action = (
             batch[self.image_key],
             batch[OBS_STATE],
@@ -218,21 +265,32 @@ class VMCPolicy(PreTrainedPolicy):
         s = self.net.encode(images.flatten(0, 1), state.flatten(0, 1)).unflatten(0, (b, k))
         e = self.net.unroll(s, batch.get(f"{OBS_STATE}_is_pad"))
         # Masks are always drawn in training (concrete dropout must not depend on `self.training`).
-        delta_ee, logits, ee_pos, obj_pos = self.net.decode(e, stochastic=True)
-        target_aux = aux[:, -1]
-        losses = {
-            "loss_delta_ee": F.mse_loss(delta_ee, action[:, :DELTA_EE_DIM]),
-            "loss_gripper": F.cross_entropy(logits, gripper_labels(action[:, DELTA_EE_DIM])),
-            "loss_ee_pos": F.mse_loss(ee_pos, target_aux[:, : AUX_DIM // 2]),
-            "loss_obj_pos": F.mse_loss(obj_pos, target_aux[:, AUX_DIM // 2 :]),
-        }
-        regularization = self.net.head.regularization()
-        loss = torch.stack(list(losses.values())).sum() + regularization
-        info = {name: value.item() for name, value in losses.items()}
-        info["regularization"] = regularization.item()
-        for i, p in enumerate(self.net.head.dropout_probabilities()):
-            info[f"dropout_p_{i}"] = p
-        return loss, info
+        return self.net.decode(e, stochastic=True), action, aux[:, -1]
+
+    def _sequence_outputs(self, batch: dict[str, Tensor]) -> tuple[tuple[Tensor, ...], Tensor, Tensor]:
+        """Decoded outputs (each (N, ...)) on the N real frames of the chunks, with their actions and targets.
+
+        Only the real frames go through the CNN (once each); the LSTM runs over the whole chunk.
+        """
+        images, state, aux, action = (
+            batch[self.image_key],
+            batch[OBS_STATE],
+            batch[OBS_ENV_STATE],
+            batch[ACTION],
+        )
+        if images.dim() != 5 or action.dim() != 3:
+            raise ValueError(
+                "Sequence training expects chunks: image (B, L, 3, H, W) and action (B, L, 4); got "
+                f"{tuple(images.shape)} and {tuple(action.shape)}. Train with the policy's delta indices "
+                "(lerobot-train sets them from the config)."
+            )
+        real = chunk_frames_mask(batch, images.shape[:2])
+        group = torch.arange(images.shape[0], device=images.device)[:, None].expand_as(real)[real]
+        frames = random_shift(images[real], self.config.image_shift_pad, group)
+        s_real = self.net.encode(frames, state[real])
+        s = s_real.new_zeros(*real.shape, s_real.shape[-1]).masked_scatter(real[..., None], s_real)
+        e = self.net.unroll_sequence(s)[real]
+        return self.net.decode(e, stochastic=True), action[real], aux[real]
 
     def _current_obs(self, batch: dict[str, Tensor]) -> tuple[Tensor, Tensor]:
         images, state = batch[self.image_key], batch[OBS_STATE]
@@ -286,11 +344,61 @@ class VMCPolicy(PreTrainedPolicy):
 
     @classmethod
     def _load_as_safetensor(
-        cls, model: VMCPolicy, model_file: str, map_location: str, strict: bool
-    ) -> VMCPolicy:
+        cls, model: "VMCPolicy", model_file: str, map_location: str, strict: bool
+    ) -> "VMCPolicy":
         """Load the weights strictly, whatever `strict` says (LeRobot's default only warns about a missing
         tensor and keeps its random weights): see `lerobot_ivmc.policies.checkpoint_checks`."""
         from lerobot_ivmc.policies.checkpoint_checks import load_checkpoint_strictly
 
         load_checkpoint_strictly(model, model_file, map_location)
         return model
+
+
+def supervised_losses(outputs: tuple[Tensor, ...], action: Tensor, aux: Tensor) -> dict[str, Tensor]:
+    """The four losses of the paper's Eq. (loss-vmc), equally weighted, each a mean over the N labels.
+
+    Args:
+        outputs: decoded delta EE (N, 3), gripper logits (N, 3), EE (N, 3) and object (N, 3) positions.
+        action: (N, 4) demonstrated actions.
+        aux: (N, 6) auxiliary targets (EE then object position, normalised).
+    """
+    delta_ee, logits, ee_pos, obj_pos = outputs
+    return {
+        "loss_delta_ee": F.mse_loss(delta_ee, action[:, :DELTA_EE_DIM]),
+        "loss_gripper": F.cross_entropy(logits, gripper_labels(action[:, DELTA_EE_DIM])),
+        "loss_ee_pos": F.mse_loss(ee_pos, aux[:, : AUX_DIM // 2]),
+        "loss_obj_pos": F.mse_loss(obj_pos, aux[:, AUX_DIM // 2 :]),
+    }
+
+
+def chunk_frames_mask(batch: dict[str, Tensor], shape: torch.Size) -> Tensor:
+    """(B, L) bool, True for a chunk's real frames (False past its episode's end, where LeRobot pads).
+
+    A chunk must start on a real frame and its padding must come after its real frames: anything else
+    would put frames of before an episode's start into the carried memory.
+    """
+    is_pad = batch.get(f"{ACTION}_is_pad", batch.get(f"{OBS_STATE}_is_pad"))
+    if is_pad is None:
+        return torch.ones(shape, dtype=torch.bool, device=batch[ACTION].device)
+    real = ~is_pad.bool()
+    if not real[:, 0].all() or (real[:, 1:] & ~real[:, :-1]).any():
+        raise ValueError(
+            "Sequence chunks must start on a real frame and be padded only after their episode's end; "
+            "got padding before or between real frames. Use the policy's own (forward) delta indices."
+        )
+    return real
+
+
+def check_chunk_length(config: VMCConfig, dataset_meta=None) -> None:
+    """Refuse a sequence chunk longer than the longest training episode (it would be mostly padding)."""
+    if config.training_mode != "sequence" or dataset_meta is None:
+        return
+    episodes = getattr(dataset_meta, "episodes", None)  # a Hugging Face dataset, one row per episode
+    if episodes is None or "length" not in episodes.column_names:
+        return
+    longest = int(max(episodes["length"]))
+    if config.chunk_length > longest:
+        raise ValueError(
+            f"chunk_length={config.chunk_length} exceeds the longest episode of the dataset "
+            f"({longest} frames): set --policy.chunk_length to at most {longest} (a whole episode)."
+        )

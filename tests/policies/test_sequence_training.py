@@ -1,0 +1,147 @@
+"""Sequence training: chunks of demo frames, the LSTM memory carried over the chunk as at rollout."""
+
+from __future__ import annotations
+
+import inspect
+from pathlib import Path
+
+import pytest
+import torch
+from lerobot.datasets.factory import resolve_delta_timestamps
+from lerobot.datasets.lerobot_dataset import LeRobotDataset, LeRobotDatasetMetadata
+from lerobot.policies.factory import get_policy_class, make_policy_config
+from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
+from policy_helpers import IMAGE_KEY, STATE_DIM, TINY_REPO_ID, make_config
+
+from lerobot_ivmc.datasets.frame_cache import FrameCache
+from lerobot_ivmc.policies import BVMCPolicy, VMCConfig, VMCPolicy
+from lerobot_ivmc.policies.vmc.modeling_vmc import supervised_losses
+
+
+def chunk_batch(batch_size: int = 3, length: int = 12, seed: int = 0) -> dict[str, torch.Tensor]:
+    """Chunks as LeRobot gives them for forward delta indices; chunk 1 ends its episode after 8 frames."""
+    g = torch.Generator().manual_seed(seed)
+    lead = (batch_size, length)
+    batch = {
+        IMAGE_KEY: torch.rand(*lead, 3, 64, 64, generator=g),
+        OBS_STATE: torch.randn(*lead, STATE_DIM, generator=g),
+        OBS_ENV_STATE: torch.randn(*lead, 6, generator=g),
+        ACTION: torch.cat(
+            [torch.rand(*lead, 3, generator=g) * 2 - 1, torch.randint(-1, 2, (*lead, 1), generator=g)], dim=-1
+        ),
+    }
+    is_pad = torch.zeros(lead, dtype=torch.bool)
+    is_pad[1, 8:] = True
+    batch[f"{ACTION}_is_pad"] = is_pad
+    batch[f"{OBS_STATE}_is_pad"] = is_pad.clone()
+    return batch
+
+
+def sequence_policy(cls: type[VMCPolicy] = VMCPolicy, **kwargs) -> VMCPolicy:
+    torch.manual_seed(0)
+    return cls(make_config(cls.config_class, training_mode="sequence", chunk_length=12, **kwargs))
+
+
+def test_sequence_config_asks_lerobot_for_chunks_and_rolls_out_with_carried_memory() -> None:
+    config = make_config(VMCConfig, training_mode="sequence", chunk_length=5)
+    assert config.observation_delta_indices == [0, 1, 2, 3, 4]
+    assert config.action_delta_indices == [0, 1, 2, 3, 4]
+    assert config.rollout_memory == "trajectory"
+    window = make_config(VMCConfig)
+    assert window.observation_delta_indices == [-3, -2, -1, 0] and window.action_delta_indices is None
+    assert window.rollout_memory == "window"
+    assert (
+        make_config(VMCConfig, training_mode="sequence", rollout_memory="window").rollout_memory == "window"
+    )
+
+
+def test_chunk_frames_go_through_the_cnn_once_each_and_padding_never() -> None:
+    policy = sequence_policy(BVMCPolicy)
+    encoded: list[int] = []
+    policy.net.cnn.register_forward_hook(lambda module, args, out: encoded.append(args[0].shape[0]))
+    batch = chunk_batch()
+    loss, info = policy.forward(batch)
+    real = int((~batch[f"{ACTION}_is_pad"]).sum())
+    assert encoded == [real] == [3 * 12 - 4]
+    assert info["supervised_steps"] == real
+    loss.backward()
+    assert all(p.grad is not None for p in policy.net.cnn.parameters())
+
+
+def test_chunk_loss_equals_a_step_by_step_rollout_from_reset_with_carried_memory() -> None:
+    policy = sequence_policy(image_shift_pad=0)
+    batch = chunk_batch()
+    loss, _ = policy.forward(batch)
+
+    policy.reset()
+    steps = []
+    with torch.no_grad():
+        for t in range(batch[IMAGE_KEY].shape[1]):
+            obs = {IMAGE_KEY: batch[IMAGE_KEY][:, t], OBS_STATE: batch[OBS_STATE][:, t]}
+            steps.append(policy.net.decode(policy.step_embedding(obs), stochastic=False))
+    real = ~batch[f"{ACTION}_is_pad"]
+    outputs = [torch.stack([step[i] for step in steps], dim=1)[real] for i in range(4)]
+    expected = sum(supervised_losses(outputs, batch[ACTION][real], batch[OBS_ENV_STATE][real]).values())
+    torch.testing.assert_close(loss.detach(), expected, rtol=1e-5, atol=1e-6)
+
+
+def test_padded_frames_do_not_change_the_loss() -> None:
+    policy = sequence_policy(image_shift_pad=0)
+    batch = chunk_batch()
+    other = {key: value.clone() for key, value in batch.items()}
+    for key in (IMAGE_KEY, OBS_STATE, OBS_ENV_STATE, ACTION):
+        other[key][1, 8:] = other[key][1, 8:] * 3 + 1  # padding past the episode's end
+    torch.testing.assert_close(policy.forward(batch)[0], policy.forward(other)[0])
+
+
+def test_chunks_from_the_dataset_stop_at_their_episode_end(tiny_dataset: Path) -> None:
+    config = make_config(VMCConfig, training_mode="sequence", chunk_length=10, image_shift_pad=0)
+    meta = LeRobotDatasetMetadata(TINY_REPO_ID, root=tiny_dataset)
+    dataset = LeRobotDataset(
+        TINY_REPO_ID, root=tiny_dataset, delta_timestamps=resolve_delta_timestamps(config, meta)
+    )
+    cached = FrameCache(dataset)
+    last_of_first = int(meta.episodes["length"][0]) - 1
+    item = cached[last_of_first - 4]  # five real frames left in episode 0
+    assert item[f"{ACTION}_is_pad"].tolist() == [False] * 5 + [True] * 5
+    # Past the end LeRobot repeats episode 0's last frame: nothing of episode 1 enters the chunk.
+    last = cached[last_of_first]
+    assert torch.equal(item[IMAGE_KEY][5:], last[IMAGE_KEY][:1].expand(5, -1, -1, -1))
+    torch.testing.assert_close(item[IMAGE_KEY], dataset[last_of_first - 4][IMAGE_KEY])
+    # The chunk that starts episode 1 starts from zero memory, whatever shares its batch: its outputs
+    # alone equal its outputs batched after the end of episode 0.
+    policy = VMCPolicy(config)
+    first_of_second = cached[last_of_first + 1]
+    alone = {k: v[None] for k, v in first_of_second.items() if isinstance(v, torch.Tensor)}
+    pair = {k: torch.stack([item[k], first_of_second[k]]) for k in alone}
+    with torch.no_grad():
+        outputs_alone = policy._sequence_outputs(alone)[0]
+        outputs_pair = policy._sequence_outputs(pair)[0]
+    for single, batched in zip(outputs_alone, outputs_pair, strict=True):
+        torch.testing.assert_close(batched[5:], single)  # 5 real frames of episode 0 come first
+
+
+def test_bad_chunk_lengths_and_padding_are_refused(tiny_dataset: Path) -> None:
+    with pytest.raises(ValueError, match="chunk_length must be >= 1"):
+        make_config(VMCConfig, training_mode="sequence", chunk_length=0)
+    with pytest.raises(ValueError, match="training_mode must be one of"):
+        make_config(VMCConfig, training_mode="episodes")
+    meta = LeRobotDatasetMetadata(TINY_REPO_ID, root=tiny_dataset)
+    with pytest.raises(ValueError, match=r"exceeds the longest episode.*at most 30"):
+        VMCPolicy(make_config(VMCConfig, training_mode="sequence", chunk_length=31), dataset_meta=meta)
+    policy = sequence_policy()
+    batch = chunk_batch()
+    batch[f"{ACTION}_is_pad"][0, 0] = True  # padding before a real frame
+    with pytest.raises(ValueError, match="padded only after their episode's end"):
+        policy.forward(batch)
+    with pytest.raises(ValueError, match="expects chunks"):
+        policy.forward({k: v[:, 0] for k, v in chunk_batch().items()})
+
+
+@pytest.mark.parametrize("name", ["vmc", "bvmc"])
+def test_policy_init_annotates_config_with_the_config_class(name: str) -> None:
+    """LeRobot's own policy-class check: the `config` annotation of `__init__` is the config class."""
+    policy_cls = get_policy_class(name)
+    config_cls = make_policy_config(name).__class__
+    assert policy_cls.name == name
+    assert issubclass(config_cls, inspect.signature(policy_cls.__init__).parameters["config"].annotation)
