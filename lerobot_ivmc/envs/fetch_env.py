@@ -27,7 +27,7 @@ from gymnasium.utils import EzPickle  # noqa: E402
 from gymnasium_robotics.utils import mujoco_utils  # noqa: E402
 
 from lerobot_ivmc.envs import scene_model  # noqa: E402
-from lerobot_ivmc.envs.scenes import Grid, Scene, scenes_of_split  # noqa: E402
+from lerobot_ivmc.envs.scenes import Grid, Scene, cell_jitter, scenes_of_split  # noqa: E402
 
 logger = logging.getLogger(__name__)
 
@@ -160,10 +160,13 @@ class IvmcFetchEnv(gym.Env, EzPickle):
 
         `options["scene_index"]` picks a scene directly. Otherwise seed ``s`` picks scene ``s mod n`` of a
         fixed shuffle of the split's ``n`` scenes, so seeds 0..n-1 visit every scene once (evaluation on
-        distinct held-out scenes); an unseeded reset draws a scene from the env's random generator.
+        distinct held-out scenes), and seeds from n on revisit them with the object and target moved within
+        their grid cells by an offset drawn from the seed (`scenes.cell_jitter`); an unseeded reset draws a
+        scene from the env's random generator.
         """
         super().reset(seed=seed)
         options = options or {}
+        object_offset = target_offset = np.zeros(2)
         if "scene_index" in options:
             index = int(options["scene_index"])
             if not 0 <= index < len(self.scenes):
@@ -173,13 +176,14 @@ class IvmcFetchEnv(gym.Env, EzPickle):
                 )
         elif seed is not None:
             index = int(self._scene_order[seed % len(self.scenes)])
+            object_offset, target_offset = cell_jitter(seed, len(self.scenes))
         else:
             index = int(self.np_random.integers(len(self.scenes)))
         self.scene = self.scenes[index]
 
         mujoco.mj_setState(self.model, self.data, self._initial_state, mujoco.mjtState.mjSTATE_INTEGRATION)
-        object_xy = self.object_grid.position(self.scene.object_cell)
-        target_xy = self.target_grid.position(self.scene.target_cell)
+        object_xy = self.object_grid.jittered_position(self.scene.object_cell, object_offset)
+        target_xy = self.target_grid.jittered_position(self.scene.target_cell, target_offset)
         qpos = [*object_xy, self.object_shape.rest_height, 1.0, 0.0, 0.0, 0.0]
         mujoco_utils.set_joint_qpos(self.model, self.data, "object0:joint", qpos)
         self.model.body_pos[self._target_body] = [*target_xy, scene_model.TABLE_TOP_Z]

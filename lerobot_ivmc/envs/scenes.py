@@ -4,6 +4,11 @@ The paper spawns the object and the target on 6x8 grids (Sec. "Experimental Setu
 held-out scene setups. A *scene* here is the pair (object cell, target cell). Every valid pair of a task
 is assigned to exactly one split by a fixed, seeded permutation, so a scene seen in training never
 appears in validation or test.
+
+A split holds a finite number of setups (push: 84 test scenes), fewer than an evaluation may need (the
+paper: 100 test episodes, 800 for Fig. 3). Seeds past a split's n setups revisit them with the object and
+the target moved by a seeded continuous offset within their grid cells (`cell_jitter`): the held-out cell
+pairs stay held out, and every task follows the same rule. Seeds 0..n-1 place both exactly on the grid.
 """
 
 from __future__ import annotations
@@ -19,6 +24,11 @@ SPLIT_FRACTIONS = {"val": 0.1, "test": 0.1}
 # Fixed seed of the scene-to-split permutation: changing it would silently mix the splits of
 # datasets recorded before and after, so it is a constant, not a parameter.
 _SPLIT_PERMUTATION_SEED = 20_210_530
+# Largest offset of a jittered position, as a fraction of the grid spacing on each axis: neighbouring
+# cells' jittered positions never meet (0.4 + 0.4 < 1).
+JITTER_FRACTION = 0.4
+# Stream of the jitter's random generator, kept apart from other uses of the episode seed.
+_JITTER_STREAM = 1_729
 
 
 @dataclass(frozen=True)
@@ -46,6 +56,22 @@ class Grid:
         xs = np.linspace(*self.x_range, self.rows)
         ys = np.linspace(*self.y_range, self.cols)
         return np.array([xs[row], ys[col]])
+
+    @property
+    def spacing(self) -> np.ndarray:
+        """(dx, dy) distance between neighbouring cells (0 along an axis with a single cell)."""
+        return np.array(
+            [
+                (self.x_range[1] - self.x_range[0]) / max(self.rows - 1, 1),
+                (self.y_range[1] - self.y_range[0]) / max(self.cols - 1, 1),
+            ]
+        )
+
+    def jittered_position(self, index: int, offset: np.ndarray) -> np.ndarray:
+        """The cell's position moved by `offset` (in units of the spacing, each in [-1, 1] times
+        JITTER_FRACTION), kept inside the grid's bounds."""
+        low, high = np.array([self.x_range[0], self.y_range[0]]), np.array([self.x_range[1], self.y_range[1]])
+        return np.clip(self.position(index) + offset * self.spacing, low, high)
 
 
 @dataclass(frozen=True)
@@ -83,3 +109,14 @@ def scenes_of_split(all_scenes: tuple[Scene, ...], split: str) -> tuple[Scene, .
     if split not in SPLITS:
         raise ValueError(f"Unknown scene split {split!r}; choose one of {SPLITS + ('all',)}.")
     return _cached_splits(all_scenes)[split]
+
+
+def cell_jitter(seed: int, num_scenes: int) -> tuple[np.ndarray, np.ndarray]:
+    """Offsets (in grid spacings) of the object and the target for episode seed `seed` of a split of
+    `num_scenes` setups: zero for seeds below `num_scenes` (exact grid positions), else uniform in
+    [-JITTER_FRACTION, JITTER_FRACTION] per axis, drawn from the seed alone."""
+    if seed < num_scenes:
+        return np.zeros(2), np.zeros(2)
+    rng = np.random.default_rng([_JITTER_STREAM, seed])
+    offsets = rng.uniform(-JITTER_FRACTION, JITTER_FRACTION, size=(2, 2))
+    return offsets[0], offsets[1]

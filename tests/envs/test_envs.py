@@ -6,7 +6,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 from lerobot_ivmc.envs import TASKS, gym_id, make_task_env
-from lerobot_ivmc.envs.scenes import SPLITS, scenes_of_split
+from lerobot_ivmc.envs.scenes import JITTER_FRACTION, SPLITS, scenes_of_split
 
 
 @pytest.mark.parametrize("task", TASKS)
@@ -166,3 +166,28 @@ def test_malformed_actions_are_refused():
         env.step(np.zeros(3))
     with pytest.raises(ValueError, match="finite"):
         env.step(np.array([np.nan, 0, 0, 0]))
+
+
+@pytest.mark.parametrize("task", TASKS)
+def test_seeds_past_the_split_revisit_its_setups_moved_within_their_cells(task):
+    env = make_task_env(task, obs_type="state", split="test")
+    n = len(env.scenes)
+
+    def placed(seed):
+        env.reset(seed=seed)
+        target = env.model.body_pos[env._target_body][:2].copy()
+        return env.scene, env.object_position[:2].copy(), target
+
+    scene, object_xy, target_xy = placed(3)
+    np.testing.assert_allclose(object_xy, env.object_grid.position(scene.object_cell), atol=1e-6)
+    np.testing.assert_allclose(target_xy, env.target_grid.position(scene.target_cell), atol=1e-6)
+    moved = [placed(3 + cycle * n) for cycle in (1, 2)]
+    for again, obj, tgt in moved:
+        assert again == scene, "a later seed revisits the same held-out cell pair"
+        placements = ((env.object_grid, scene.object_cell, obj), (env.target_grid, scene.target_cell, tgt))
+        for grid, cell, xy in placements:
+            offset = np.abs(xy - grid.position(cell)) / np.maximum(grid.spacing, 1e-9)
+            assert np.all(offset <= JITTER_FRACTION + 1e-6), "the jitter stays inside the cell"
+    assert not np.allclose(moved[0][1], moved[1][1]), "each cycle moves the object elsewhere"
+    assert not np.allclose(moved[0][1], object_xy)
+    np.testing.assert_array_equal(placed(3 + n)[1], moved[0][1])  # the seed alone decides
