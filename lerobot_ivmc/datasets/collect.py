@@ -1,9 +1,12 @@
 """`lerobot-ivmc-collect`: record N successful expert demonstrations of a task as a LeRobotDataset.
 
-Example::
+Example, in LeRobot's draccus style (`lerobot-record`'s `--dataset.*`; see `record_config.py`)::
 
-    lerobot-ivmc-collect --task pick_place --num-episodes 1000 --root data/ivmc_pick_place \\
-        --repo-id local/ivmc_pick_place --num-workers 2 --seed 0 [--push-to-hub]
+    lerobot-ivmc-collect --env.task=pick_place --dataset.num_episodes=1000 \\
+        --dataset.root=data/ivmc_pick_place --dataset.repo_id=local/ivmc_pick_place --num_workers=2 --seed=0
+
+or with the short flags (``--task pick_place --num-episodes 1000 --root ... --repo-id ...``); a command
+line uses one style or the other.
 
 Attempt k replays the scene drawn by seed `attempt_seed(seed, k)` from the `--split` scenes; the dataset
 keeps the successful attempts in attempt order, so the same arguments always give the same episodes.
@@ -468,7 +471,13 @@ def collect_demos(cfg: CollectConfig) -> CollectSummary:
     return summary
 
 
+DRACCUS_PREFIXES = ("--env.", "--dataset.", "--config_path")
+
+
 def _parse_args(argv: list[str] | None) -> CollectConfig:
+    argv = sys.argv[1:] if argv is None else argv
+    if any(arg.startswith(DRACCUS_PREFIXES) for arg in argv):
+        return _parse_draccus(argv)
     parser = argparse.ArgumentParser(prog="lerobot-ivmc-collect", description=__doc__.split("\n")[0])
     parser.add_argument("--task", required=True, choices=TASKS)
     parser.add_argument("--num-episodes", type=int, required=True, help="successful demos to record")
@@ -493,6 +502,19 @@ def _parse_args(argv: list[str] | None) -> CollectConfig:
         return CollectConfig(**vars(args))
     except ValueError as error:
         parser.error(str(error))
+
+
+def _parse_draccus(argv: list[str]) -> CollectConfig:
+    import draccus
+
+    from lerobot_ivmc.datasets.record_config import RecordDemosConfig
+
+    cfg = draccus.parse(config_class=RecordDemosConfig, args=argv)
+    try:
+        return cfg.to_collect_config()
+    except ValueError as error:
+        print(f"lerobot-ivmc-collect: error: {error}", file=sys.stderr)
+        raise SystemExit(2) from error
 
 
 def main(argv: list[str] | None = None) -> int:

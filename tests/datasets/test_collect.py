@@ -25,7 +25,7 @@ from lerobot_ivmc.datasets import (
     rollout,
     staging,
 )
-from lerobot_ivmc.datasets.collect import CollectConfig, collect_demos, main
+from lerobot_ivmc.datasets.collect import CollectConfig, _parse_args, collect_demos, main
 from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, TASK_ENVS, TASKS, make_task_env
 from lerobot_ivmc.envs.scenes import Scene
 
@@ -280,3 +280,40 @@ def test_killed_collection_resumes_to_exactly_n_episodes(tmp_path):
     expected = LeRobotDataset(reference.repo_id, root=reference.root)
     for key in (ACTION_KEY, STATE_KEY, SCENE_SEED_KEY):
         np.testing.assert_array_equal(np.stack(dataset.hf_dataset[key]), np.stack(expected.hf_dataset[key]))
+
+
+def test_draccus_flags_give_the_same_collection_as_the_short_flags(tmp_path, capsys):
+    root = str(tmp_path / "ivmc_pick_place")
+    short = _parse_args(
+        [
+            "--task",
+            "pick_place",
+            "--num-episodes",
+            "5",
+            "--root",
+            root,
+            "--repo-id",
+            "me/pp",
+            "--split",
+            "val",
+        ]
+        + ["--image-size", "32", "--video", "--num-workers", "1", "--seed", "3", "--action-noise", "0.1"]
+        + ["--no-progress"]
+    )
+    dotted = _parse_args(
+        [
+            "--env.task=pick_place",
+            "--dataset.num_episodes=5",
+            f"--dataset.root={root}",
+            "--dataset.repo_id=me/pp",
+        ]
+        + ["--env.split=val", "--env.image_size=32", "--dataset.video=true", "--num_workers=1", "--seed=3"]
+        + ["--action_noise=0.1", "--progress=false"]
+    )
+    assert dotted == short
+    with pytest.raises(SystemExit):
+        _parse_args(["--env.task=push", "--dataset.num_episodes=1", "--dataset.bogus=1"])
+    assert "unrecognized arguments: --dataset.bogus=1" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        _parse_args(["--env.task=push", f"--dataset.root={root}"])
+    assert "--dataset.num_episodes=N" in capsys.readouterr().err

@@ -1,0 +1,103 @@
+"""The collector's config in LeRobot's draccus style (`lerobot-record` is the model).
+
+    lerobot-ivmc-collect --env.task=pick_place --dataset.num_episodes=2000 \\
+        --dataset.root=data/ivmc_pick_place --dataset.repo_id=local/ivmc_pick_place --num_workers=2 --seed=0
+
+Sections: `env` (which scenes and camera), `dataset` (where and how many), and the recording settings.
+`RecordDemosConfig.to_collect_config` gives the `CollectConfig` that `collect_demos` runs, which validates
+every value. A pipeline preset nests this config as its `collect` section.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from lerobot_ivmc.datasets.collect import CollectConfig
+
+
+@dataclass
+class DemoEnvConfig:
+    """Which scenes the expert runs on.
+
+    Args:
+        task: task name (push, pick_place, pick_reach).
+        split: scene split of the demos ("train" for policy training).
+        image_size: camera height and width in pixels.
+
+    The task has no default: the command refuses to run without it.
+    """
+
+    task: str = ""
+    split: str = "train"
+    image_size: int = 64
+
+
+@dataclass
+class DemoDatasetConfig:
+    """Where the demos go, as `lerobot-record`'s `--dataset.*`.
+
+    Args:
+        repo_id: dataset id; default ``local/ivmc_<task>`` (``<hub user>/<name>`` to push).
+        root: local dataset folder; default ``data/ivmc_<task>``.
+        num_episodes: successful demos the dataset must hold.
+        video: store the camera as mp4 instead of PNG frames.
+        push_to_hub: publish the finished dataset with `LeRobotDataset.push_to_hub`.
+        private: make the hub repository private.
+
+    `num_episodes` has no default: the command refuses to run without it.
+    """
+
+    repo_id: str | None = None
+    root: Path | None = None
+    num_episodes: int = 0
+    video: bool = False
+    push_to_hub: bool = False
+    private: bool = False
+
+
+@dataclass
+class RecordDemosConfig:
+    """`lerobot-ivmc-collect`'s draccus config.
+
+    Args:
+        env: scenes and camera.
+        dataset: destination and size.
+        num_workers: parallel recording processes (0: in this process).
+        seed: base seed of the attempts' scene seeds.
+        action_noise: std of the noise on the executed delta-EE command, in action units (DART); the
+            recorded label stays the expert's.
+        progress: show a progress bar.
+    """
+
+    env: DemoEnvConfig = field(default_factory=DemoEnvConfig)
+    dataset: DemoDatasetConfig = field(default_factory=DemoDatasetConfig)
+    num_workers: int = 2
+    seed: int = 0
+    action_noise: float = 0.0
+    progress: bool = True
+
+    def to_collect_config(self) -> CollectConfig:
+        """The flat `CollectConfig` (validated: unknown task, bad counts and roots raise ValueError)."""
+        if not self.env.task:
+            raise ValueError("Give the task: --env.task=push|pick_place|pick_reach.")
+        if self.dataset.num_episodes <= 0:
+            raise ValueError(
+                "Give how many demos to record: --dataset.num_episodes=N (N > 0), got "
+                f"{self.dataset.num_episodes}."
+            )
+        return CollectConfig(
+            task=self.env.task,
+            num_episodes=self.dataset.num_episodes,
+            root=self.dataset.root,
+            repo_id=self.dataset.repo_id,
+            split=self.env.split,
+            image_size=self.env.image_size,
+            video=self.dataset.video,
+            num_workers=self.num_workers,
+            seed=self.seed,
+            action_noise=self.action_noise,
+            push_to_hub=self.dataset.push_to_hub,
+            private=self.dataset.private,
+            progress=self.progress,
+        )

@@ -1,0 +1,1 @@
+"""The study pipeline: presets, stages run through the project's own commands, resumable, and results."""

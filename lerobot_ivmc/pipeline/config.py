@@ -1,0 +1,144 @@
+"""The pipeline's config: one nested draccus config whose sections are the stages' own commands' settings.
+
+A preset (`configs/pipeline/<name>.yaml`: smoke, lite, paper) fills it; every value can be overridden on
+the command line (`--train.steps=2000`, `--collect.dataset.num_episodes=500`), and a field that does not
+exist is refused by draccus. Section fields carry the names of the flags of the command they feed:
+`collect` is `lerobot-ivmc-collect`'s own `RecordDemosConfig`; `train.policy` holds `--policy.*` fields of
+`lerobot-ivmc-train`; `foresight` is `lerobot-ivmc-foresight`'s `--foresight.*`; and so on.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from lerobot_ivmc.datasets.record_config import RecordDemosConfig
+from lerobot_ivmc.envs import TASKS
+from lerobot_ivmc.recovery.foresight_training import ForesightConfig
+
+PRESETS_DIR = Path(__file__).resolve().parents[2] / "configs" / "pipeline"
+RECOVERY_MODES = ("none", "rand", "init", "min_unc")
+POLICY_TYPES = ("vmc", "bvmc")
+
+
+@dataclass
+class TrainPolicyConfig:
+    """`--policy.*` fields of `lerobot-ivmc-train` the pipeline sets (the type and #fc come per run)."""
+
+    training_mode: str = "sequence"
+    chunk_length: int = 100
+
+
+@dataclass
+class TrainStageConfig:
+    """`lerobot-ivmc-train`, once per policy type and #fc.
+
+    Args:
+        num_fc_layers: the #fc values of Table I to train and evaluate (the paper: 1 and 2).
+        steps, batch_size, save_freq, seed: as `lerobot-train`'s flags.
+        bf16: train under bf16 autocast (`ACCELERATE_MIXED_PRECISION=bf16`).
+        policy: policy fields passed as `--policy.<name>=`.
+
+    Every run trains from the same seed; the final checkpoint is the one evaluated.
+    """
+
+    num_fc_layers: list[int] = field(default_factory=lambda: [1, 2])
+    steps: int = 6000
+    batch_size: int = 8
+    save_freq: int = 6000
+    seed: int = 1000
+    bf16: bool = True
+    policy: TrainPolicyConfig = field(default_factory=TrainPolicyConfig)
+
+
+@dataclass
+class EpisodesConfig:
+    """How many episodes an evaluation-like stage runs, in batches of `batch_size` parallel envs."""
+
+    n_episodes: int = 100
+    batch_size: int = 10
+
+
+@dataclass
+class ForesightStageConfig:
+    """`lerobot-ivmc-foresight`: `--eval.batch_size` and `--foresight.*`."""
+
+    batch_size: int = 10
+    foresight: ForesightConfig = field(default_factory=ForesightConfig)
+
+
+@dataclass
+class ThresholdStageConfig:
+    """`lerobot-ivmc-threshold` on validation scenes: the paper's argmax, or conformal with `alpha`."""
+
+    n_episodes: int = 100
+    batch_size: int = 10
+    method: str = "argmax"
+    alpha: float = 0.1
+
+
+@dataclass
+class PipelineConfig:
+    """The whole study for one task.
+
+    Args:
+        task: push, pick_place or pick_reach.
+        preset: the preset this config started from (recorded, so a folder never mixes presets).
+        output_dir: the study's folder (data, checkpoints, evals, results); default
+            ``outputs/pipeline/<task>_<preset>``.
+        seed: the seed of every evaluation (test scenes are seeds seed..seed+n-1: the same scenes for
+            every row).
+        episode_length: steps before an evaluation episode is cut (the paper: 200).
+        collect: `lerobot-ivmc-collect`'s config (its `env.task` is set from `task`).
+        train: the training runs.
+        foresight: distillation of the uncertainty foresight head.
+        threshold: threshold picking on validation scenes.
+        eval: the Table I evaluations on test scenes (VMC, and BVMC with each of `recovery_modes`).
+        recovery_modes: the BVMC rows: "none" (plain BVMC), "rand", "init", "min_unc".
+        fig3: the Fig. 3 evaluation (BVMC without recovery, many test episodes) and detection metrics.
+    """
+
+    task: str = ""
+    preset: str = ""
+    output_dir: Path | None = None
+    seed: int = 0
+    episode_length: int = 200
+    collect: RecordDemosConfig = field(default_factory=RecordDemosConfig)
+    train: TrainStageConfig = field(default_factory=TrainStageConfig)
+    foresight: ForesightStageConfig = field(default_factory=ForesightStageConfig)
+    threshold: ThresholdStageConfig = field(default_factory=ThresholdStageConfig)
+    eval: EpisodesConfig = field(default_factory=EpisodesConfig)
+    recovery_modes: list[str] = field(default_factory=lambda: list(RECOVERY_MODES))
+    fig3: EpisodesConfig = field(default_factory=lambda: EpisodesConfig(n_episodes=800))
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self) -> None:
+        """Refuse values no stage could run, with what to pass instead."""
+        if self.task and self.task not in TASKS:
+            raise ValueError(f"Unknown task {self.task!r}: choose --task from {TASKS}.")
+        bad_fc = [n for n in self.train.num_fc_layers if n not in (1, 2)]
+        if bad_fc or not self.train.num_fc_layers:
+            raise ValueError(
+                f"--train.num_fc_layers must list #fc values from (1, 2), got {self.train.num_fc_layers}."
+            )
+        bad_modes = [m for m in self.recovery_modes if m not in RECOVERY_MODES]
+        if bad_modes or not self.recovery_modes:
+            raise ValueError(
+                f"--recovery_modes must be taken from {RECOVERY_MODES}, got {self.recovery_modes}."
+            )
+        for name, value in (
+            ("train.steps", self.train.steps),
+            ("eval.n_episodes", self.eval.n_episodes),
+            ("fig3.n_episodes", self.fig3.n_episodes),
+            ("threshold.n_episodes", self.threshold.n_episodes),
+            ("collect.dataset.num_episodes", self.collect.dataset.num_episodes),
+        ):
+            if value <= 0:
+                raise ValueError(f"--{name} must be positive, got {value}.")
+
+    @property
+    def root(self) -> Path:
+        """The study's folder."""
+        return Path(self.output_dir or Path("outputs") / "pipeline" / f"{self.task}_{self.preset}")

@@ -1,0 +1,147 @@
+"""The study's results in the layout of the paper's Table I: JSON for programs, markdown for people, the
+Fig. 3 plot and detection metrics per #fc, and a few recovery videos, gathered in `<root>/results/`."""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from pathlib import Path
+
+from lerobot_ivmc.pipeline.config import PipelineConfig
+from lerobot_ivmc.pipeline.paper_table import PAPER_TABLE
+from lerobot_ivmc.pipeline.runner import StageResult, write_json_atomic
+from lerobot_ivmc.pipeline.stages import Stage, eval_stage_name, fig3_stage_name, stage_output
+
+RESULTS_DIR = "results"
+METHOD_LABELS = {
+    "vmc": "VMC",
+    "none": "BVMC",
+    "rand": "BVMC + rand",
+    "init": "BVMC + init",
+    "min_unc": "BVMC + min unc",
+}
+MAX_VIDEOS = 3
+
+
+def table_rows(cfg: PipelineConfig, stages: list[Stage]) -> list[dict]:
+    """One row per (#fc, method): each subtask's rate, standard error and n, and the recoveries."""
+    rows = []
+    for fc in cfg.train.num_fc_layers:
+        for method in ["vmc", *cfg.recovery_modes]:
+            name = (
+                eval_stage_name("vmc", fc, None) if method == "vmc" else eval_stage_name("bvmc", fc, method)
+            )
+            info = json.loads((stage_output(stages, name) / "eval_info.json").read_text())
+            row = {
+                "task": cfg.task,
+                "model": "VMC" if method == "vmc" else "BVMC",
+                "num_fc_layers": fc,
+                "method": method,
+                "label": METHOD_LABELS[method],
+                "subtasks": {
+                    sub: {"rate": r["pc"], "stderr": r["stderr"], "n": r["n"]}
+                    for sub, r in info["aggregated_subtasks"].items()
+                },
+                "paper": {
+                    sub: {"rate": v[0], "stderr": v[1]}
+                    for sub, v in PAPER_TABLE[cfg.task][fc][method].items()
+                },
+            }
+            if method not in ("vmc", "none") and "recovery" in info:
+                row["recoveries"] = info["recovery"]["num_recoveries"]
+                row["episodes_with_recovery"] = info["recovery"]["episodes_with_recovery"]
+                row["threshold"] = info["recovery"]["threshold"]
+            rows.append(row)
+    return rows
+
+
+def markdown_table(rows: list[dict]) -> str:
+    """Table I layout: measured rate +- SE per subtask, the paper's next to it."""
+    subtasks = list(rows[0]["subtasks"])
+    n = rows[0]["subtasks"][subtasks[0]]["n"]
+    head = " | ".join(f"{s} [%] (paper)" for s in subtasks)
+    lines = [
+        f"| model, {n} test scenes | #fc | {head} | recoveries (episodes) |",
+        "|---|---|" + "---|" * len(subtasks) + "---|",
+    ]
+    for row in rows:
+        cells = []
+        for s in subtasks:
+            m, p = row["subtasks"][s], row["paper"].get(s)
+            paper = f" ({p['rate']:.0f})" if p else ""
+            cells.append(f"{m['rate']:.1f} +- {m['stderr']:.1f}{paper}")
+        rec = f"{row['recoveries']} ({row['episodes_with_recovery']})" if "recoveries" in row else "-"
+        lines.append(f"| {row['label']} | {row['num_fc_layers']} | " + " | ".join(cells) + f" | {rec} |")
+    return "\n".join(lines) + "\n"
+
+
+def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageResult]) -> Path:
+    """Write `<root>/results/`: `<task>.json`, `table.md`, Fig. 3 and detection plots, recovery videos."""
+    root = cfg.root
+    out = root / RESULTS_DIR
+    out.mkdir(parents=True, exist_ok=True)
+    rows = table_rows(cfg, stages)
+    per_fc = {}
+    for fc in cfg.train.num_fc_layers:
+        fig3_dir = stage_output(stages, fig3_stage_name(cfg, fc))
+        fig3_info = json.loads((fig3_dir / "eval_info.json").read_text())
+        fig3_png = out / f"fig3_fc{fc}.png"
+        shutil.copyfile(fig3_dir / fig3_info["uncertainty_vs_success"]["plot"], fig3_png)
+        detection_dir = stage_output(stages, f"detect_fc{fc}")
+        detection = json.loads((detection_dir / "detection.json").read_text())
+        for plot in detection.get("plots", []):
+            shutil.copyfile(detection_dir / plot, out / f"fc{fc}_{plot}")
+        videos = (
+            sorted(
+                (stage_output(stages, eval_stage_name("bvmc", fc, "min_unc")) / "recovery_videos").glob(
+                    "*.mp4"
+                )
+            )
+            if "min_unc" in cfg.recovery_modes
+            else []
+        )
+        for video in videos[:MAX_VIDEOS]:
+            shutil.copyfile(video, out / f"fc{fc}_min_unc_{video.name}")
+        binned = fig3_info["uncertainty_vs_success"]
+        per_fc[str(fc)] = {
+            "fig3": {
+                "episodes": fig3_info["run"]["n_episodes"],
+                "spearman_rho": finite(binned["spearman_rho"]),
+                "mean_u": binned["mean_u"],
+                "success_rate": binned["success_rate"],
+                "count": binned["count"],
+                "plot": fig3_png.name,
+            },
+            "detection": {
+                **{k: detection[k] for k in ("episodes", "failures", "argmax", "conformal")},
+                "auroc": finite(detection["auroc"]),
+            },
+            "videos": [f"fc{fc}_min_unc_{v.name}" for v in videos[:MAX_VIDEOS]],
+        }
+    payload = {
+        "task": cfg.task,
+        "preset": cfg.preset,
+        "rows": rows,
+        "per_fc": per_fc,
+        "stage_wall_s": {t.name: round(t.wall_s, 1) for t in timings},
+        "total_wall_s": round(sum(t.wall_s for t in timings), 1),
+    }
+    write_json_atomic(out / f"{cfg.task}.json", payload)
+    lines = [f"# {cfg.task}, preset {cfg.preset}\n", markdown_table(rows)]
+    for fc, entry in per_fc.items():
+        det, rho = entry["detection"], entry["fig3"]["spearman_rho"]
+        rho_text = "n/a" if rho is None else f"{rho:.2f}"
+        auroc_text = "n/a" if det["auroc"] is None else f"{det['auroc']:.3f}"
+        lines.append(
+            f"\n#fc = {fc}: Fig. 3 over {entry['fig3']['episodes']} test episodes, Spearman rho {rho_text} "
+            f"({entry['fig3']['plot']}); failure prediction AUROC {auroc_text} "
+            f"({det['failures']} failures in {det['episodes']}).\n"
+        )
+    (out / "table.md").write_text("".join(lines))
+    return out
+
+
+def finite(value: float | None) -> float | None:
+    """None for NaN (undefined: one class only, or a constant), so the JSON stays standard."""
+    return None if value is None or math.isnan(value) else value

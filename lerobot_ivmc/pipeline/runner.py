@@ -1,0 +1,129 @@
+"""Run stages in order, resumable: a stage is skipped when its record says it finished with the same
+fingerprint (its command, environment and its dependencies' fingerprints) and its done file exists.
+
+Records live in `<root>/stages/<name>.json`, written atomically. A stage killed midway has a "running"
+record: it is redone from a clean output folder (the collector, which resumes itself, keeps its partial
+dataset when its config is unchanged). Changing a stage's config changes its fingerprint and therefore
+its successors' too: they rerun, the stages before it do not. `<root>/pipeline.json` names the task and
+preset; a folder of another study, or one that is not a study, is refused and left untouched.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from lerobot_ivmc.pipeline.stages import Stage, console_script
+
+MANIFEST_FILE = "pipeline.json"
+STAGES_DIR = "stages"
+LOGS_DIR = "logs"
+
+
+class PipelineError(RuntimeError):
+    """A stage failed; the message names its log and says what to do."""
+
+
+class OutputFolderError(ValueError):
+    """The output folder holds another study or foreign files; it is left untouched."""
+
+
+@dataclass
+class StageResult:
+    name: str
+    status: str  # "ran" or "skipped"
+    wall_s: float
+
+
+def write_json_atomic(path: Path, payload: dict) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(json.dumps(payload, indent=2))
+    os.replace(tmp, path)
+
+
+def claim_root(root: Path, identity: dict) -> None:
+    """Make `root` this study's folder, or refuse (touching nothing) if it holds something else."""
+    manifest = root / MANIFEST_FILE
+    if manifest.is_file():
+        found = json.loads(manifest.read_text())
+        if {k: found.get(k) for k in identity} != identity:
+            raise OutputFolderError(
+                f"{root} holds the study {found}, not {identity}: choose another --output_dir (nothing was "
+                "changed there)."
+            )
+        return
+    if root.exists() and (not root.is_dir() or any(root.iterdir())):
+        raise OutputFolderError(
+            f"{root} exists and is not a pipeline folder (no {MANIFEST_FILE}): choose a new or empty "
+            "--output_dir (nothing was changed there)."
+        )
+    write_json_atomic(manifest, identity)
+
+
+def fingerprint(stage: Stage, upstream: dict[str, str]) -> str:
+    """Hash of what decides a stage's outputs: its command, its environment, its inputs' fingerprints."""
+    payload = {
+        "argv": stage.argv,
+        "env": stage.env,
+        "depends": {name: upstream[name] for name in stage.depends},
+    }
+    return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def run_stages(root: Path, stages: list[Stage], log=print) -> list[StageResult]:
+    """Run the stages not yet done with their current fingerprint; return what ran and what was skipped."""
+    fingerprints: dict[str, str] = {}
+    results = []
+    for index, stage in enumerate(stages, start=1):
+        fingerprints[stage.name] = fp = fingerprint(stage, fingerprints)
+        record_path = root / STAGES_DIR / f"{stage.name}.json"
+        record = json.loads(record_path.read_text()) if record_path.is_file() else {}
+        prefix = f"[{index}/{len(stages)}] {stage.name}"
+        if record.get("fingerprint") == fp and record.get("status") == "done" and stage.done_file.exists():
+            log(f"{prefix}: done earlier ({record['wall_s']:.0f} s), skipped")
+            results.append(StageResult(stage.name, "skipped", record["wall_s"]))
+            continue
+        keep = stage.resumable and record.get("fingerprint") == fp
+        if stage.output.exists() and not keep:
+            shutil.rmtree(stage.output)
+        log_path = root / LOGS_DIR / f"{stage.name}.log"
+        log(f"{prefix}: running (log {log_path})")
+        write_json_atomic(record_path, {"fingerprint": fp, "status": "running", "argv": stage.argv})
+        wall = run_command(stage, log_path)
+        write_json_atomic(
+            record_path, {"fingerprint": fp, "status": "done", "wall_s": wall, "argv": stage.argv}
+        )
+        log(f"{prefix}: done in {wall:.0f} s")
+        results.append(StageResult(stage.name, "ran", wall))
+    return results
+
+
+def run_command(stage: Stage, log_path: Path) -> float:
+    """Run the stage's command with its output in `log_path`; its wall time, or PipelineError."""
+    log_path.parent.mkdir(parents=True, exist_ok=True)
+    argv = [console_script(stage.argv[0]), *stage.argv[1:]]
+    start = time.perf_counter()
+    with log_path.open("w") as log_file:
+        log_file.write(" ".join(stage.argv) + "\n\n")
+        log_file.flush()
+        returncode = subprocess.run(
+            argv, stdout=log_file, stderr=subprocess.STDOUT, env={**os.environ, **stage.env}
+        ).returncode
+    wall = time.perf_counter() - start
+    if returncode != 0:
+        tail = log_path.read_text().splitlines()[-5:]
+        raise PipelineError(
+            f"Stage {stage.name} failed (exit {returncode}); its log is {log_path}. Last lines:\n  "
+            + "\n  ".join(tail)
+            + "\nFix the cause and rerun the same command: finished stages are kept."
+        )
+    if not stage.done_file.exists():
+        raise PipelineError(f"Stage {stage.name} exited without writing {stage.done_file}; see {log_path}.")
+    return wall

@@ -1,0 +1,279 @@
+"""The study's stages: each one a command of this project, its own output folder and the file that marks it
+done. `build_stages` turns a `PipelineConfig` into the ordered list the runner executes.
+
+collect -> train (vmc, bvmc for each #fc) -> foresight -> threshold -> evals of the Table I rows on the same
+test scenes -> Fig. 3 episodes -> detection metrics. (The results table is written by the runner.)
+"""
+
+from __future__ import annotations
+
+import shutil
+import sys
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from lerobot_ivmc.pipeline.config import PipelineConfig
+
+CHECKPOINT = Path("checkpoints") / "last" / "pretrained_model"
+
+
+@dataclass
+class Stage:
+    """One step of the study.
+
+    Attributes:
+        name: unique name, also of its log file and record.
+        argv: the command (console script name first).
+        output: the folder the stage owns: removed before the stage is redone.
+        done_file: a file the command writes last; the stage counts as done only if it exists.
+        depends: names of the stages whose outputs it reads.
+        env: environment variables for the command.
+        resumable: the command resumes its own partial output (the collector): keep it on a redo of the same
+            config.
+    """
+
+    name: str
+    argv: list[str]
+    output: Path
+    done_file: Path
+    depends: list[str] = field(default_factory=list)
+    env: dict[str, str] = field(default_factory=dict)
+    resumable: bool = False
+
+
+def console_script(name: str) -> str:
+    """Path of one of this environment's console scripts (next to the interpreter), else from PATH."""
+    script = Path(sys.executable).with_name(name)
+    if script.exists():
+        return str(script)
+    found = shutil.which(name)
+    if found is None:
+        raise FileNotFoundError(f"{name} is not installed in this environment: pip install -e . first.")
+    return found
+
+
+def flags(prefix: str, values: dict) -> list[str]:
+    """`--<prefix><key>=<value>` for every entry (lists as draccus reads them, booleans lower case)."""
+    out = []
+    for key, value in values.items():
+        if isinstance(value, bool):
+            value = str(value).lower()
+        elif isinstance(value, (list, tuple)):
+            value = "[" + ",".join(str(v) for v in value) + "]"
+        out.append(f"--{prefix}{key}={value}")
+    return out
+
+
+def build_stages(cfg: PipelineConfig) -> list[Stage]:
+    """The ordered stages of the study of `cfg.task` in `cfg.root`."""
+    root = cfg.root.resolve()
+    task = cfg.task
+    data = root / "data"
+    repo_id = f"local/ivmc_{task}"
+    env_flags = ["--env.type=ivmc", f"--env.task={task}", f"--env.episode_length={cfg.episode_length}"]
+    c = cfg.collect
+    stages = [
+        Stage(
+            "collect",
+            [
+                "lerobot-ivmc-collect",
+                f"--env.task={task}",
+                *flags("env.", {"split": c.env.split, "image_size": c.env.image_size}),
+                f"--dataset.root={data}",
+                f"--dataset.repo_id={c.dataset.repo_id or repo_id}",
+                *flags(
+                    "dataset.",
+                    {
+                        "num_episodes": c.dataset.num_episodes,
+                        "video": c.dataset.video,
+                        "push_to_hub": c.dataset.push_to_hub,
+                        "private": c.dataset.private,
+                    },
+                ),
+                *flags("", {"num_workers": c.num_workers, "seed": c.seed, "action_noise": c.action_noise}),
+                "--progress=false",
+            ],
+            output=data,
+            done_file=data / "meta" / "info.json",
+            resumable=True,
+        )
+    ]
+    t = cfg.train
+    for fc in t.num_fc_layers:
+        for policy_type in ("vmc", "bvmc"):
+            name = f"train_{policy_type}_fc{fc}"
+            out = root / "train" / f"{policy_type}_fc{fc}"
+            stages.append(
+                Stage(
+                    name,
+                    [
+                        "lerobot-ivmc-train",
+                        f"--policy.type={policy_type}",
+                        "--policy.device=cpu",
+                        f"--policy.num_fc_layers={fc}",
+                        *flags("policy.", asdict(t.policy)),
+                        f"--dataset.repo_id={c.dataset.repo_id or repo_id}",
+                        f"--dataset.root={data}",
+                        *flags("", {"batch_size": t.batch_size, "steps": t.steps, "seed": t.seed}),
+                        f"--save_freq={min(t.save_freq, t.steps)}",
+                        "--num_workers=0",
+                        "--eval_freq=0",
+                        "--policy.push_to_hub=false",
+                        "--wandb.enable=false",
+                        f"--output_dir={out}",
+                    ],
+                    output=out,
+                    done_file=out / CHECKPOINT / "model.safetensors",
+                    depends=["collect"],
+                    env={"ACCELERATE_MIXED_PRECISION": "bf16" if t.bf16 else "no"},
+                )
+            )
+    seed = f"--seed={cfg.seed}"
+    for fc in t.num_fc_layers:
+        bvmc = root / "train" / f"bvmc_fc{fc}" / CHECKPOINT
+        foresight = root / "foresight" / f"fc{fc}"
+        threshold = root / "threshold" / f"fc{fc}"
+        f = cfg.foresight
+        stages.append(
+            Stage(
+                f"foresight_fc{fc}",
+                [
+                    "lerobot-ivmc-foresight",
+                    f"--policy.path={bvmc}",
+                    *env_flags,
+                    *flags("foresight.", asdict(f.foresight)),
+                    f"--eval.batch_size={f.batch_size}",
+                    f"--eval.n_episodes={f.batch_size}",
+                    seed,
+                    f"--output_dir={foresight}",
+                ],
+                output=foresight,
+                done_file=foresight / "pretrained_model" / "model.safetensors",
+                depends=[f"train_bvmc_fc{fc}"],
+            )
+        )
+        th = cfg.threshold
+        stages.append(
+            Stage(
+                f"threshold_fc{fc}",
+                [
+                    "lerobot-ivmc-threshold",
+                    f"--policy.path={foresight / 'pretrained_model'}",
+                    *env_flags,
+                    "--env.split=val",
+                    f"--eval.n_episodes={th.n_episodes}",
+                    f"--eval.batch_size={th.batch_size}",
+                    f"--method={th.method}",
+                    f"--alpha={th.alpha}",
+                    seed,
+                    f"--output_dir={threshold}",
+                ],
+                output=threshold,
+                done_file=threshold / "pretrained_model" / "recovery_threshold.json",
+                depends=[f"foresight_fc{fc}"],
+            )
+        )
+        rows = [("vmc", root / "train" / f"vmc_fc{fc}" / CHECKPOINT, None, f"train_vmc_fc{fc}")]
+        rows += [
+            ("bvmc", threshold / "pretrained_model", mode, f"threshold_fc{fc}") for mode in cfg.recovery_modes
+        ]
+        for policy_type, checkpoint, mode, source in rows:
+            name = eval_stage_name(policy_type, fc, mode)
+            out = root / "eval" / name.removeprefix("eval_")
+            stages.append(
+                eval_stage(
+                    name,
+                    checkpoint,
+                    out,
+                    env_flags,
+                    cfg.eval.n_episodes,
+                    cfg.eval.batch_size,
+                    seed,
+                    mode,
+                    source,
+                )
+            )
+        fig3 = fig3_stage_name(cfg, fc)
+        if fig3 != eval_stage_name("bvmc", fc, "none"):
+            out = root / "fig3" / f"fc{fc}"
+            stages.append(
+                eval_stage(
+                    fig3,
+                    threshold / "pretrained_model",
+                    out,
+                    env_flags,
+                    cfg.fig3.n_episodes,
+                    cfg.fig3.batch_size,
+                    seed,
+                    "none",
+                    f"threshold_fc{fc}",
+                )
+            )
+        fig3_out = stage_output(stages, fig3)
+        detection = root / "detection" / f"fc{fc}"
+        stages.append(
+            Stage(
+                f"detect_fc{fc}",
+                [
+                    "lerobot-ivmc-detect",
+                    f"--eval_dir={fig3_out}",
+                    f"--threshold_path={threshold / 'pretrained_model'}",
+                    f"--alpha={cfg.threshold.alpha}",
+                    f"--output_dir={detection}",
+                ],
+                output=detection,
+                done_file=detection / "detection.json",
+                depends=[fig3, f"threshold_fc{fc}"],
+            )
+        )
+    return stages
+
+
+def eval_stage_name(policy_type: str, fc: int, mode: str | None) -> str:
+    """`eval_vmc_fc1`, `eval_bvmc_fc1_min_unc`, ..."""
+    return f"eval_{policy_type}_fc{fc}" + (f"_{mode}" if mode else "")
+
+
+def fig3_stage_name(cfg: PipelineConfig, fc: int) -> str:
+    """The stage whose episodes give Fig. 3 and the detection metrics: BVMC without recovery on test
+    scenes; the Table I row itself when it has as many episodes, else a stage of its own."""
+    same = "none" in cfg.recovery_modes and (cfg.fig3.n_episodes, cfg.fig3.batch_size) == (
+        cfg.eval.n_episodes,
+        cfg.eval.batch_size,
+    )
+    return eval_stage_name("bvmc", fc, "none") if same else f"fig3_fc{fc}"
+
+
+def stage_output(stages: list[Stage], name: str) -> Path:
+    return next(stage.output for stage in stages if stage.name == name)
+
+
+def eval_stage(
+    name: str,
+    checkpoint: Path,
+    out: Path,
+    env_flags: list[str],
+    n_episodes: int,
+    batch_size: int,
+    seed: str,
+    mode: str | None,
+    source: str,
+) -> Stage:
+    """`lerobot-ivmc-eval` on test scenes (with `--recovery.mode` for the BVMC rows)."""
+    return Stage(
+        name,
+        [
+            "lerobot-ivmc-eval",
+            f"--policy.path={checkpoint}",
+            *env_flags,
+            "--env.split=test",
+            f"--eval.n_episodes={n_episodes}",
+            f"--eval.batch_size={batch_size}",
+            seed,
+            *([f"--recovery.mode={mode}"] if mode else []),
+            f"--output_dir={out}",
+        ],
+        output=out,
+        done_file=out / "eval_info.json",
+        depends=[source],
+    )

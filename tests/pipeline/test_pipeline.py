@@ -1,0 +1,85 @@
+"""`lerobot-ivmc-pipeline`: presets and overrides, bad input, and the smoke study end to end."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from lerobot_ivmc.pipeline.stages import build_stages
+from lerobot_ivmc.scripts.pipeline import parse_config
+
+ROWS = ["vmc", "none", "rand", "init", "min_unc"]
+
+
+def pipeline(*args: str) -> subprocess.CompletedProcess:
+    script = Path(sys.executable).with_name("lerobot-ivmc-pipeline")
+    return subprocess.run([str(script), *args], capture_output=True, text=True, timeout=1200)
+
+
+def test_presets_load_and_any_field_can_be_overridden(tmp_path: Path) -> None:
+    cfg = parse_config(
+        ["--task=pick_reach", "--preset=lite", f"--output_dir={tmp_path}", "--train.steps=123"]
+    )
+    assert (cfg.task, cfg.preset, cfg.train.steps) == ("pick_reach", "lite", 123)
+    assert cfg.collect.dataset.num_episodes == 2000 and cfg.train.num_fc_layers == [1, 2]
+    paper = parse_config(["--task=push", "--preset", "paper", "--foresight.foresight.num_trajectories=7"])
+    assert paper.collect.dataset.num_episodes == 4000 and paper.fig3.n_episodes == 800
+    assert paper.foresight.foresight.num_trajectories == 7
+    assert paper.root == Path("outputs/pipeline/push_paper")
+    stages = {s.name: s for s in build_stages(cfg)}
+    assert "--steps=123" in stages["train_bvmc_fc2"].argv
+    # lite's Fig. 3 reuses the BVMC test episodes; paper's has a stage of its own with 800 episodes.
+    assert (
+        "fig3_fc1" not in stages
+        and "--eval_dir=" + str(stages["eval_bvmc_fc1_none"].output) in stages["detect_fc1"].argv
+    )
+    paper_stages = {s.name: s for s in build_stages(paper)}
+    assert "--eval.n_episodes=800" in paper_stages["fig3_fc2"].argv
+
+
+def test_bad_input_is_refused_with_what_to_do(capsys: pytest.CaptureFixture) -> None:
+    with pytest.raises(ValueError, match=r"Unknown preset 'huge'.*\['lite', 'paper', 'smoke'\]"):
+        parse_config(["--task=push", "--preset=huge"])
+    with pytest.raises(ValueError, match="Give the task"):
+        parse_config(["--preset=smoke"])
+    with pytest.raises(SystemExit):
+        parse_config(["--task=push", "--preset=smoke", "--train.stepz=5"])
+    assert "--train.stepz" in capsys.readouterr().err
+    bad_task = pipeline("--task=stack", "--preset=smoke")
+    assert bad_task.returncode == 2 and "Unknown task 'stack'" in bad_task.stderr
+    bad_fc = pipeline("--task=push", "--preset=smoke", "--train.num_fc_layers=[3]")
+    assert bad_fc.returncode == 2 and "num_fc_layers" in bad_fc.stderr
+
+
+def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Path) -> None:
+    out = tmp_path / "push_smoke"
+    first = pipeline("--task=push", "--preset=smoke", f"--output_dir={out}")
+    assert first.returncode == 0, first.stdout[-3000:] + first.stderr[-3000:]
+    results = json.loads((out / "results" / "push.json").read_text())
+    assert [(r["num_fc_layers"], r["method"]) for r in results["rows"]] == [(1, m) for m in ROWS]
+    for row in results["rows"]:
+        assert set(row["subtasks"]) == {"reach", "push"}
+        assert all(
+            v["n"] == 4 and 0 <= v["rate"] <= 100 and v["stderr"] >= 0 for v in row["subtasks"].values()
+        )
+    assert (out / "results" / "fig3_fc1.png").stat().st_size > 0
+    assert results["per_fc"]["1"]["fig3"]["episodes"] == 4
+    assert "auroc" in results["per_fc"]["1"]["detection"]
+    table = (out / "results" / "table.md").read_text()
+    assert all(
+        label in table for label in ("| VMC |", "| BVMC |", "BVMC + rand", "BVMC + init", "BVMC + min unc")
+    )
+    assert set(results["stage_wall_s"]) >= {"collect", "train_vmc_fc1", "threshold_fc1", "detect_fc1"}
+
+    again = pipeline("--task=push", "--preset=smoke", f"--output_dir={out}")
+    assert again.returncode == 0, again.stderr[-3000:]
+    assert "running" not in again.stdout and again.stdout.count("skipped") == len(results["stage_wall_s"])
+
+    before = sorted((p, p.stat().st_mtime_ns) for p in out.rglob("*"))
+    other = pipeline("--task=pick_place", "--preset=smoke", f"--output_dir={out}")
+    assert other.returncode == 2 and "holds the study" in other.stderr
+    assert sorted((p, p.stat().st_mtime_ns) for p in out.rglob("*")) == before, "the folder is left untouched"

@@ -1,0 +1,131 @@
+"""The pipeline's resumable runner on stand-in stages (small Python commands): skip, redo, rerun, refuse."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from lerobot_ivmc.pipeline.runner import STAGES_DIR, OutputFolderError, PipelineError, claim_root, run_stages
+from lerobot_ivmc.pipeline.stages import Stage
+
+PYTHON = Path(sys.executable).name
+
+
+def write_stage(root: Path, name: str, depends: list[str], config: str = "a", sleep: float = 0.0) -> Stage:
+    """A stage that writes a partial file, optionally sleeps, then its done file, and logs its run."""
+    out = root / name
+    code = (
+        "import pathlib, sys, time; out = pathlib.Path(sys.argv[1]); out.mkdir(parents=True, exist_ok=True); "
+        "(out / 'partial').write_text('x'); time.sleep(float(sys.argv[2])); "
+        "(out / 'done').write_text(sys.argv[3]); "
+        "open(sys.argv[4], 'a').write(out.name + '\\n')"
+    )
+    argv = [PYTHON, "-c", code, str(out), str(sleep), config, str(root.parent / "runs.log")]
+    return Stage(name, argv, output=out, done_file=out / "done", depends=depends)
+
+
+def chain(
+    root: Path, configs: dict[str, str] | None = None, sleep: dict[str, float] | None = None
+) -> list[Stage]:
+    configs, sleep = configs or {}, sleep or {}
+    names = ["collect", "train", "eval"]
+    return [
+        write_stage(root, name, names[:i][-1:], configs.get(name, "a"), sleep.get(name, 0.0))
+        for i, name in enumerate(names)
+    ]
+
+
+def runs(root: Path) -> list[str]:
+    log = root.parent / "runs.log"
+    names = log.read_text().split() if log.exists() else []
+    log.unlink(missing_ok=True)
+    return names
+
+
+def statuses(results) -> dict[str, str]:
+    return {r.name: r.status for r in results}
+
+
+def test_finished_stages_are_skipped_and_a_changed_stage_reruns_with_its_successors(tmp_path: Path) -> None:
+    root = tmp_path / "study"
+    root.mkdir()
+    assert statuses(run_stages(root, chain(root), log=lambda _: None)) == dict.fromkeys(
+        ["collect", "train", "eval"], "ran"
+    )
+    assert runs(root) == ["collect", "train", "eval"]
+    assert statuses(run_stages(root, chain(root), log=lambda _: None)) == dict.fromkeys(
+        ["collect", "train", "eval"], "skipped"
+    )
+    assert runs(root) == []
+    # A changed train config: train and eval rerun, collect does not.
+    results = run_stages(root, chain(root, {"train": "b"}), log=lambda _: None)
+    assert statuses(results) == {"collect": "skipped", "train": "ran", "eval": "ran"}
+    assert runs(root) == ["train", "eval"]
+    assert (root / "train" / "done").read_text() == "b"
+
+
+def test_a_killed_stage_is_redone_from_a_clean_folder_and_finished_ones_are_kept(tmp_path: Path) -> None:
+    root = tmp_path / "study"
+    root.mkdir()
+    script = tmp_path / "run.py"
+    script.write_text(
+        f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r})\n"
+        "from pathlib import Path\n"
+        "from test_runner import chain\n"
+        "from lerobot_ivmc.pipeline.runner import run_stages\n"
+        "root = Path(sys.argv[1]); run_stages(root, chain(root, sleep={'train': float(sys.argv[2])}))\n"
+    )
+    process = subprocess.Popen([sys.executable, str(script), str(root), "60"], start_new_session=True)
+    record = root / STAGES_DIR / "train.json"
+    deadline = time.monotonic() + 120
+    while not (root / "train" / "partial").exists() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    os.killpg(process.pid, signal.SIGKILL)
+    process.wait(timeout=30)
+    assert json.loads(record.read_text())["status"] == "running"
+    collect_done = (root / "collect" / "done").stat().st_mtime_ns
+    assert runs(root) == ["collect"]
+
+    results = run_stages(root, chain(root), log=lambda _: None)
+    assert statuses(results) == {"collect": "skipped", "train": "ran", "eval": "ran"}
+    assert runs(root) == ["train", "eval"]
+    assert (root / "collect" / "done").stat().st_mtime_ns == collect_done
+    assert json.loads(record.read_text())["status"] == "done"
+
+
+def test_a_failing_stage_stops_the_run_and_names_its_log(tmp_path: Path) -> None:
+    root = tmp_path / "study"
+    root.mkdir()
+    stages = chain(root)
+    stages[1].argv = [PYTHON, "-c", "import sys; print('no demos found'); sys.exit(3)"]
+    with pytest.raises(
+        PipelineError, match=r"(?s)Stage train failed \(exit 3\).*logs/train.log.*no demos found"
+    ):
+        run_stages(root, stages, log=lambda _: None)
+    assert runs(root) == ["collect"]
+    assert not (root / "eval").exists()
+
+
+def test_a_folder_of_another_study_or_of_no_study_is_refused_untouched(tmp_path: Path) -> None:
+    root = tmp_path / "study"
+    claim_root(root, {"task": "push", "preset": "smoke"})
+    claim_root(root, {"task": "push", "preset": "smoke"})  # the same study: fine
+    (root / "result.txt").write_text("mine")
+    before = sorted((p.name, p.read_bytes()) for p in root.iterdir())
+    for other in ({"task": "pick_place", "preset": "smoke"}, {"task": "push", "preset": "lite"}):
+        with pytest.raises(OutputFolderError, match="holds the study.*choose another --output_dir"):
+            claim_root(root, other)
+    assert sorted((p.name, p.read_bytes()) for p in root.iterdir()) == before
+    foreign = tmp_path / "photos"
+    foreign.mkdir()
+    (foreign / "cat.jpg").write_text("meow")
+    with pytest.raises(OutputFolderError, match="not a pipeline folder"):
+        claim_root(foreign, {"task": "push", "preset": "smoke"})
+    assert [p.name for p in foreign.iterdir()] == ["cat.jpg"]
