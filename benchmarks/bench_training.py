@@ -3,7 +3,7 @@
 One supervised step = one action label learned from: a K-frame window gives one (its last frame's
 action), a chunk gives one per real frame (frames past the episode's end are padding). Each mode runs
 LeRobot's own pieces as `lerobot-ivmc-train` does: the policy's delta indices on the LeRobotDataset,
-the in-memory `FrameCache`, a shuffled DataLoader, the policy's pre-processor, forward, backward,
+the in-memory `FrameCache`, a shuffled DataLoader (LeRobot's episode-aware sampler for chunks), the policy's pre-processor, forward, backward,
 gradient clipping and an Adam step. Modes run in interleaved rounds (so a busy machine slows all of them
 alike) and the median round rate is reported. `--bf16` adds sequence training under bf16 autocast (what
 `ACCELERATE_MIXED_PRECISION=bf16 lerobot-ivmc-train ...` runs).
@@ -12,7 +12,7 @@ The goal of the sequence training: at least 3x the window's supervised steps per
 
 Usage:
     python benchmarks/bench_training.py --root <data>/pp_dart --repo-id local/pp_dart [--episodes 200]
-        [--threads 2] [--rounds 3] [--steps-per-round 20] [--window-batch 32] [--sequence-batch 8]
+        [--threads 2] [--rounds 3] [--steps-per-round 20] [--window-batch 32] [--sequence-batch 4]
         [--chunk-length 100] [--bf16]
 """
 
@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import torch
 from lerobot.datasets.factory import resolve_delta_timestamps
 from lerobot.datasets.lerobot_dataset import LeRobotDataset, LeRobotDatasetMetadata
+from lerobot.datasets.sampler import EpisodeAwareSampler
 from lerobot.policies.factory import make_policy, make_pre_post_processors
 
 from lerobot_ivmc.datasets.frame_cache import FrameCache
@@ -60,8 +61,21 @@ class Trainer:
         self.preprocessor, _ = make_pre_post_processors(mode.config, dataset_stats=meta.stats)
         self.optimizer = mode.config.get_optimizer_preset().build(self.policy.parameters())
         generator = torch.Generator().manual_seed(0)
+        sampler = None
+        if hasattr(mode.config, "drop_n_last_frames"):  # what lerobot-train does: chunks only where they fit
+            sampler = EpisodeAwareSampler(
+                meta.episodes["dataset_from_index"],
+                meta.episodes["dataset_to_index"],
+                episode_indices_to_use=episodes,
+                drop_n_last_frames=mode.config.drop_n_last_frames,
+                shuffle=True,
+            )
         self.loader = torch.utils.data.DataLoader(
-            FrameCache(dataset), batch_size=mode.batch_size, shuffle=True, generator=generator
+            FrameCache(dataset),
+            batch_size=mode.batch_size,
+            shuffle=sampler is None,
+            sampler=sampler,
+            generator=generator,
         )
         self.batches = self._endless()
 
@@ -104,7 +118,7 @@ def main() -> None:
     parser.add_argument("--steps-per-round", type=int, default=20)
     parser.add_argument("--warmup-steps", type=int, default=3)
     parser.add_argument("--window-batch", type=int, default=32)
-    parser.add_argument("--sequence-batch", type=int, default=8)
+    parser.add_argument("--sequence-batch", type=int, default=4)
     parser.add_argument("--chunk-length", type=int, default=100)
     parser.add_argument("--bf16", action="store_true", help="also time sequence training under bf16 autocast")
     args = parser.parse_args()

@@ -127,7 +127,7 @@ def test_bad_chunk_lengths_and_padding_are_refused(tiny_dataset: Path) -> None:
     with pytest.raises(ValueError, match="training_mode must be one of"):
         make_config(VMCConfig, training_mode="episodes")
     meta = LeRobotDatasetMetadata(TINY_REPO_ID, root=tiny_dataset)
-    with pytest.raises(ValueError, match=r"exceeds the longest episode.*at most 30"):
+    with pytest.raises(ValueError, match=r"exceeds the shortest episode.*at most 30"):
         VMCPolicy(make_config(VMCConfig, training_mode="sequence", chunk_length=31), dataset_meta=meta)
     policy = sequence_policy()
     batch = chunk_batch()
@@ -145,3 +145,21 @@ def test_policy_init_annotates_config_with_the_config_class(name: str) -> None:
     config_cls = make_policy_config(name).__class__
     assert policy_cls.name == name
     assert issubclass(config_cls, inspect.signature(policy_cls.__init__).parameters["config"].annotation)
+
+
+def test_lerobot_train_samples_chunks_only_where_they_fit(tiny_dataset: Path) -> None:
+    """`lerobot-train` builds this sampler when the config has `drop_n_last_frames`: whole-episode chunks
+    start at episode starts only, so every frame weighs the same; window training samples every frame."""
+    from lerobot.datasets.sampler import EpisodeAwareSampler
+
+    meta = LeRobotDatasetMetadata(TINY_REPO_ID, root=tiny_dataset)
+    starts = list(meta.episodes["dataset_from_index"])
+    for length, expected in ((30, starts), (25, [s + i for s in starts for i in range(6)])):
+        config = make_config(VMCConfig, training_mode="sequence", chunk_length=length)
+        sampler = EpisodeAwareSampler(
+            meta.episodes["dataset_from_index"],
+            meta.episodes["dataset_to_index"],
+            drop_n_last_frames=config.drop_n_last_frames,
+        )
+        assert list(sampler) == expected
+    assert not hasattr(make_config(VMCConfig, training_mode="window"), "drop_n_last_frames")

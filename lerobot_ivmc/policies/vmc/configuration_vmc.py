@@ -38,13 +38,16 @@ class VMCConfig(PreTrainedConfig):
         fc_dim: width of the fully connected layers after the LSTM.
         num_fc_layers: #fc, fully connected layers after the LSTM (the paper: 1 or 2).
         training_mode: what one training sample is. "sequence": a chunk of `chunk_length` consecutive frames
-            of one demo, from a frame to at most the episode's end; the LSTM runs over the chunk from zero
-            memory at its first frame (a chunk starting at frame 0 carries it from the episode start), each
-            frame goes through the CNN once, and every frame's action is a label. "window": the K frames up to
+            of one demo that fits inside the episode (with the default, a whole 100-step demo); the LSTM
+            runs over the chunk from zero memory at its first frame (with whole episodes: carried from the
+            episode start, as at rollout), each frame goes through the CNN once, and every frame's action is
+            a label. "window": the K frames up to
             a frame, the LSTM from zero memory over them, the last frame's action the only label (each frame
             goes through the CNN about K times per epoch).
-        chunk_length: frames per chunk in sequence training (up to a whole episode); frames past the episode's
-            end are padded by LeRobot and left out of the CNN and the loss.
+        chunk_length: frames per chunk in sequence training, at most the shortest demo. Chunks start only
+            where they fit (`drop_n_last_frames`, LeRobot's episode-aware sampler): with chunk_length equal
+            to the demo length every frame weighs the same. (Chunks from any frame, padded past the episode's
+            end, weigh frame t by t + 1: the first steps of an episode were all but never learned.)
         rollout_memory: how the LSTM memory runs at rollout; None follows `training_mode`. "trajectory" (the
             paper): one LSTM step per control step, (h, c) carried along the whole episode and cleared by
             `reset()`, as in sequence training. "window": the memory is the state representations of the last
@@ -189,6 +192,15 @@ class VMCConfig(PreTrainedConfig):
             raise ValueError(
                 f"VMC needs an {ACTION!r} of shape ({ACTION_DIM},) [dx, dy, dz, gripper]; got {got}."
             )
+
+    @property
+    def drop_n_last_frames(self) -> int:
+        """Sequence training: `lerobot-train` samples chunk starts only where a whole chunk fits (its
+        `EpisodeAwareSampler` drops the last L - 1 frames of each episode). Window training has no such
+        attribute, so LeRobot samples every frame."""
+        if self.training_mode != "sequence":
+            raise AttributeError("drop_n_last_frames: window training samples every frame")
+        return self.chunk_length - 1
 
     @property
     def observation_delta_indices(self) -> list[int]:

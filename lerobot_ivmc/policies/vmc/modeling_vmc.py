@@ -390,15 +390,17 @@ def chunk_frames_mask(batch: dict[str, Tensor], shape: torch.Size) -> Tensor:
 
 
 def check_chunk_length(config: VMCConfig, dataset_meta=None) -> None:
-    """Refuse a sequence chunk longer than the longest training episode (it would be mostly padding)."""
+    """Refuse a sequence chunk longer than the shortest training episode (that episode would never be
+    sampled: chunks start only where they fit)."""
     if config.training_mode != "sequence" or dataset_meta is None:
         return
     episodes = getattr(dataset_meta, "episodes", None)  # a Hugging Face dataset, one row per episode
     if episodes is None or "length" not in episodes.column_names:
         return
-    longest = int(max(episodes["length"]))
-    if config.chunk_length > longest:
+    shortest = int(min(episodes["length"]))
+    if config.chunk_length > shortest:
         raise ValueError(
-            f"chunk_length={config.chunk_length} exceeds the longest episode of the dataset "
-            f"({longest} frames): set --policy.chunk_length to at most {longest} (a whole episode)."
+            f"chunk_length={config.chunk_length} exceeds the shortest episode of the dataset "
+            f"({shortest} frames), which would never be trained on: set --policy.chunk_length to at most "
+            f"{shortest}."
         )
