@@ -1,12 +1,12 @@
 """Training throughput of window against sequence training, in supervised steps per second, in one run.
 
 One supervised step = one action label learned from: a K-frame window gives one (its last frame's
-action), a chunk gives one per real frame (frames past the episode's end are padding). Each mode runs
-LeRobot's own pieces as `lerobot-ivmc-train` does: the policy's delta indices on the LeRobotDataset,
-the in-memory `FrameCache`, a shuffled DataLoader (LeRobot's episode-aware sampler for chunks), the policy's pre-processor, forward, backward,
-gradient clipping and an Adam step. Modes run in interleaved rounds (so a busy machine slows all of them
-alike) and the median round rate is reported. `--bf16` adds sequence training under bf16 autocast (what
-`ACCELERATE_MIXED_PRECISION=bf16 lerobot-ivmc-train ...` runs).
+action), a chunk one per frame. Each mode runs LeRobot's own pieces as `lerobot-ivmc-train` does: the
+policy's delta indices on the LeRobotDataset, the in-memory `FrameCache`, a shuffled DataLoader (LeRobot's
+episode-aware sampler for chunks, so they start only where they fit), the policy's pre-processor, forward,
+backward, gradient clipping and an Adam step. Modes run in interleaved rounds (so a busy machine slows all
+of them alike) and the median round rate is reported. `--bf16` adds sequence training under bf16 autocast
+(what `ACCELERATE_MIXED_PRECISION=bf16 lerobot-ivmc-train ...` runs).
 
 The goal of the sequence training: at least 3x the window's supervised steps per second.
 

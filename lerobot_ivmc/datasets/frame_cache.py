@@ -30,15 +30,19 @@ class FrameCache(torch.utils.data.Dataset):
 
     Args:
         dataset: an image-based (not video) LeRobotDataset, with its delta timestamps already set.
+        absolute_indices: items are asked for by the dataset's absolute frame index, as LeRobot's
+            `EpisodeAwareSampler` yields them, instead of by position (the two differ on an episode subset,
+            where `LeRobotDataset` itself would read the wrong rows).
     """
 
-    def __init__(self, dataset: LeRobotDataset):
+    def __init__(self, dataset: LeRobotDataset, absolute_indices: bool = False):
         if dataset.meta.video_keys:
             raise ValueError(
                 f"FrameCache holds decoded image frames; {dataset.repo_id} stores {dataset.meta.video_keys} "
                 "as video. Train on it with plain `lerobot-train`, or re-collect it without `--video`."
             )
         self.dataset = dataset
+        self.absolute_indices = absolute_indices
         self.image_keys = set(dataset.meta.image_keys)
         self.columns = self._decode_all_columns()
 
@@ -80,6 +84,8 @@ class FrameCache(torch.utils.data.Dataset):
     def __getitem__(self, idx: int) -> dict:
         """The item `LeRobotDataset.__getitem__(idx)` returns (image datasets), from memory."""
         ds = self.dataset
+        if self.absolute_indices and ds._absolute_to_relative_idx is not None:
+            idx = ds._absolute_to_relative_idx[idx]
         item = {key: self._column(key, idx) for key in self.columns}
         if ds.delta_indices is not None:
             query_indices, padding = ds._get_query_indices(item["index"].item(), item["episode_index"].item())

@@ -26,7 +26,11 @@ def make_cached_dataset(cfg) -> FrameCache:
     """LeRobot's `make_dataset(cfg)`, its frames decoded into memory; fills N from the frames trained on."""
     if cfg.dataset.streaming:
         raise ValueError("lerobot-ivmc-train caches a local dataset; drop --dataset.streaming=true.")
-    dataset = FrameCache(factory.make_dataset(cfg))
+    # Sequence training makes lerobot-train sample with its EpisodeAwareSampler, which yields absolute frame
+    # indices (`drop_n_last_frames` on the policy config).
+    dataset = FrameCache(
+        factory.make_dataset(cfg), absolute_indices=hasattr(cfg.policy, "drop_n_last_frames")
+    )
     if hasattr(cfg.policy, "dataset_size") and cfg.policy.dataset_size is None:
         cfg.policy.dataset_size = dataset.num_frames
     return dataset

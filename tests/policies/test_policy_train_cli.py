@@ -30,6 +30,27 @@ def console_script(name: str) -> str:
 SEQUENCE = ("--policy.training_mode=sequence", "--policy.chunk_length=10")
 
 
+def train_command(
+    command: str, policy_type: str, dataset: Path, out: Path, steps: int, *extra: str
+) -> list[str]:
+    """A `lerobot-train`-style command on the tiny dataset, local and offline, saving at the last step."""
+    return [
+        console_script(command),
+        f"--policy.type={policy_type}",
+        f"--dataset.repo_id={TINY_REPO_ID}",
+        f"--dataset.root={dataset}",
+        "--policy.device=cpu",
+        "--policy.push_to_hub=false",
+        "--wandb.enable=false",
+        "--eval_freq=0",
+        f"--steps={steps}",
+        f"--save_freq={steps}",
+        "--num_workers=0",
+        f"--output_dir={out}",
+        *extra,
+    ]
+
+
 @pytest.mark.parametrize(
     "command, policy_type, extra",
     [
@@ -44,23 +65,9 @@ def test_train_then_load_and_act(
     command: str, policy_type: str, extra: tuple[str, ...], tiny_dataset: Path, tmp_path: Path
 ) -> None:
     out = tmp_path / "train"
-    cmd = [
-        console_script(command),
-        f"--policy.type={policy_type}",
-        f"--dataset.repo_id={TINY_REPO_ID}",
-        f"--dataset.root={tiny_dataset}",
-        "--policy.device=cpu",
-        "--policy.push_to_hub=false",
-        "--wandb.enable=false",
-        "--eval_freq=0",
-        f"--steps={STEPS}",
-        f"--save_freq={STEPS}",
-        "--batch_size=4",
-        "--num_workers=0",
-        "--log_freq=1",
-        f"--output_dir={out}",
-        *extra,
-    ]
+    cmd = train_command(
+        command, policy_type, tiny_dataset, out, STEPS, "--batch_size=4", "--log_freq=1", *extra
+    )
     result = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     checkpoint = out / "checkpoints" / f"{STEPS:06d}" / "pretrained_model"
@@ -91,24 +98,16 @@ def test_train_then_load_and_act(
     assert set(actions[..., 3].flatten().tolist()) <= {-1.0, 0.0, 1.0}
 
 
-def test_regulariser_n_counts_only_the_episodes_trained_on(tiny_dataset: Path, tmp_path: Path) -> None:
+@pytest.mark.parametrize("extra", [(), ("--policy.training_mode=sequence", "--policy.chunk_length=30")])
+def test_regulariser_n_counts_only_the_episodes_trained_on(
+    extra: tuple[str, ...], tiny_dataset: Path, tmp_path: Path
+) -> None:
+    """Also: sequence chunks of an episode subset come from that subset (LeRobot's episode-aware sampler
+    yields absolute frame indices, which `lerobot-ivmc-train`'s cache maps to its rows)."""
     out = tmp_path / "train"
-    cmd = [
-        console_script("lerobot-ivmc-train"),
-        "--policy.type=bvmc",
-        f"--dataset.repo_id={TINY_REPO_ID}",
-        f"--dataset.root={tiny_dataset}",
-        "--dataset.episodes=[1]",
-        "--policy.device=cpu",
-        "--policy.push_to_hub=false",
-        "--wandb.enable=false",
-        "--eval_freq=0",
-        "--steps=1",
-        "--save_freq=1",
-        "--batch_size=2",
-        "--num_workers=0",
-        f"--output_dir={out}",
-    ]
+    cmd = train_command(
+        "lerobot-ivmc-train", "bvmc", tiny_dataset, out, 1, "--batch_size=2", "--dataset.episodes=[1]", *extra
+    )
     result = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     policy = get_policy_class("bvmc").from_pretrained(out / "checkpoints" / "000001" / "pretrained_model")
