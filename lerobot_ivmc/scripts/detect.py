@@ -69,7 +69,10 @@ def detect(cfg: DetectionConfig) -> dict:
     failures = [not e["success"] for e in episodes]
     traces = [t["window_sum"] for t in load_traces(Path(cfg.eval_dir) / TRACES_FILE)]
     calibration = [e["u"] for e in record.episodes if e["success"]]
-    conformal = conformal_threshold(calibration, cfg.alpha)
+    try:
+        conformal = conformal_threshold(calibration, cfg.alpha)
+    except ValueError as error:  # too few calibration successes: report the rest, say why this is missing
+        conformal, conformal_missing = None, str(error)
     sweep = conformal_sweep(calibration, scores, failures, sorted(cfg.alphas))
     result = {
         "task": info["run"]["task"],
@@ -85,12 +88,14 @@ def detect(cfg: DetectionConfig) -> dict:
         "argmax": metrics_at_threshold(scores, failures, record.threshold, traces)
         if record.method == "argmax"
         else None,
-        "conformal": {"alpha": cfg.alpha, **metrics_at_threshold(scores, failures, conformal, traces)},
+        "conformal": {"alpha": cfg.alpha, **metrics_at_threshold(scores, failures, conformal, traces)}
+        if conformal is not None
+        else {"alpha": cfg.alpha, "unavailable": conformal_missing},
         "conformal_sweep": sweep,
         "lead_time_definition": "steps from the first window sum above the threshold to the episode's end",
     }
     output_dir = Path(cfg.output_dir or Path(cfg.eval_dir) / "detection")
-    thresholds = {f"conformal a={cfg.alpha}": conformal}
+    thresholds = {f"conformal a={cfg.alpha}": conformal} if conformal is not None else {}
     if record.method == "argmax":
         thresholds = {"argmax": record.threshold, **thresholds}
     title = f"{result['task']}: {len(episodes)} {info['run']['split']} episodes"
@@ -99,6 +104,11 @@ def detect(cfg: DetectionConfig) -> dict:
     ]
     (output_dir / DETECTION_FILE).write_text(json.dumps(result, indent=2))
     return result
+
+
+def percent(rate: dict | None) -> str:
+    """A rate as "12.3%", or "n/a" where it is undefined (no episode of that class)."""
+    return "n/a" if rate is None else f"{rate['pc']:.1f}%"
 
 
 @parser.wrap()
@@ -112,10 +122,13 @@ def detect_main(cfg: DetectionConfig) -> dict:
         m = result[name]
         if m is None:
             continue
+        if "unavailable" in m:
+            print(f"  {name:<9} unavailable: {m['unavailable']}")
+            continue
         median_lead = (m.get("lead_time_steps") or {}).get("median", float("nan"))
         balanced = m.get("balanced_accuracy", float("nan"))
         print(
-            f"  {name:<9} C={m['threshold']:.3f}: TPR {m['tpr']['pc']:.1f}%, TNR {m['tnr']['pc']:.1f}%, "
+            f"  {name:<9} C={m['threshold']:.3f}: TPR {percent(m['tpr'])}, TNR {percent(m['tnr'])}, "
             f"balanced {balanced:.1f}%, lead time {median_lead:.0f} steps (median)"
         )
     for row in result["conformal_sweep"]:

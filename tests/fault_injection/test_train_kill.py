@@ -30,7 +30,8 @@ def test_killed_training_resumes_from_its_last_checkpoint(tmp_path: Path) -> Non
     dataset = build_expert_dataset(tmp_path / "data", num_episodes=1, max_steps=20)
     out = tmp_path / "train"
     process = subprocess.Popen(_train(out, dataset), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    first = out / "checkpoints" / "000005" / "pretrained_model" / "model.safetensors"
+    # LeRobot points `last` at a checkpoint once it is fully written; kill after that, as a resume needs it.
+    first = out / "checkpoints" / "last" / "pretrained_model" / "train_config.json"
     deadline = time.monotonic() + 300
     while not first.exists() and process.poll() is None and time.monotonic() < deadline:
         time.sleep(0.2)
