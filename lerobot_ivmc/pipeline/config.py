@@ -43,9 +43,9 @@ class TrainStageConfig:
     """
 
     num_fc_layers: list[int] = field(default_factory=lambda: [1, 2])
-    steps: int = 6000
-    batch_size: int = 8
-    save_freq: int = 6000
+    steps: int = 16000
+    batch_size: int = 2
+    save_freq: int = 4000
     seed: int = 1000
     bf16: bool = True
     policy: TrainPolicyConfig = field(default_factory=TrainPolicyConfig)
