@@ -10,6 +10,8 @@ preset; a folder of another study, or one that is not a study, is refused and le
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import hashlib
 import json
 import os
@@ -22,6 +24,7 @@ from pathlib import Path
 from lerobot_ivmc.pipeline.stages import Stage, console_script
 
 MANIFEST_FILE = "pipeline.json"
+LOCK_FILE = ".pipeline.lock"
 STAGES_DIR = "stages"
 LOGS_DIR = "logs"
 
@@ -65,6 +68,28 @@ def claim_root(root: Path, identity: dict) -> None:
             "--output_dir (nothing was changed there)."
         )
     write_json_atomic(manifest, identity)
+
+
+@contextlib.contextmanager
+def study_lock(root: Path):
+    """Hold an exclusive lock on the study folder while a pipeline runs in it (released by the kernel if
+    the process dies, so a killed run never leaves it locked); a second run is refused, naming the first."""
+    root.mkdir(parents=True, exist_ok=True)
+    fd = os.open(root / LOCK_FILE, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 200, 0).decode(errors="replace") or "another process"
+            raise OutputFolderError(
+                f"{root} is in use by a running pipeline ({holder}): wait for it to finish or stop it, then "
+                "rerun this command (it resumes)."
+            ) from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"pid {os.getpid()}".encode(), 0)
+        yield
+    finally:
+        os.close(fd)
 
 
 def fingerprint(stage: Stage, upstream: dict[str, str]) -> str:

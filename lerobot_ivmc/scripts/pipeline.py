@@ -18,7 +18,7 @@ import draccus
 
 from lerobot_ivmc.pipeline.config import PRESETS_DIR, PipelineConfig
 from lerobot_ivmc.pipeline.results import write_results
-from lerobot_ivmc.pipeline.runner import PipelineError, claim_root, run_stages
+from lerobot_ivmc.pipeline.runner import PipelineError, claim_root, run_stages, study_lock
 from lerobot_ivmc.pipeline.stages import build_stages
 from lerobot_ivmc.scripts.errors import run_cli
 
@@ -55,8 +55,9 @@ def run_pipeline(cfg: PipelineConfig, log=print) -> dict:
     claim_root(root, {"task": cfg.task, "preset": cfg.preset})
     stages = build_stages(cfg)
     start = time.perf_counter()
-    timings = run_stages(root, stages, log)
-    out = write_results(cfg, stages, timings)
+    with study_lock(root):
+        timings = run_stages(root, stages, log)
+        out = write_results(cfg, stages, timings)
     log(f"\nStage wall times ({cfg.task}, preset {cfg.preset}; skipped stages show their earlier time):")
     for t in timings:
         log(f"  {t.name:<28} {t.status:<8} {t.wall_s:8.0f} s")

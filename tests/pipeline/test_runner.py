@@ -12,7 +12,14 @@ from pathlib import Path
 
 import pytest
 
-from lerobot_ivmc.pipeline.runner import STAGES_DIR, OutputFolderError, PipelineError, claim_root, run_stages
+from lerobot_ivmc.pipeline.runner import (
+    STAGES_DIR,
+    OutputFolderError,
+    PipelineError,
+    claim_root,
+    run_stages,
+    study_lock,
+)
 from lerobot_ivmc.pipeline.stages import Stage
 
 PYTHON = Path(sys.executable).name
@@ -129,3 +136,13 @@ def test_a_folder_of_another_study_or_of_no_study_is_refused_untouched(tmp_path:
     with pytest.raises(OutputFolderError, match="not a pipeline folder"):
         claim_root(foreign, {"task": "push", "preset": "smoke"})
     assert [p.name for p in foreign.iterdir()] == ["cat.jpg"]
+
+
+def test_a_second_run_on_a_folder_in_use_is_refused_until_the_first_ends(tmp_path: Path) -> None:
+    root = tmp_path / "study"
+    with study_lock(root):
+        with pytest.raises(OutputFolderError, match=rf"in use by a running pipeline \(pid {os.getpid()}\)"):
+            with study_lock(root):
+                pass
+    with study_lock(root):  # released when the first run ends (or dies): the next one takes it
+        pass
