@@ -41,9 +41,8 @@ class VMCConfig(PreTrainedConfig):
             of one demo that fits inside the episode (with the default, a whole 100-step demo); the LSTM
             runs over the chunk from zero memory at its first frame (with whole episodes: carried from the
             episode start, as at rollout), each frame goes through the CNN once, and every frame's action is
-            a label. "window": the K frames up to
-            a frame, the LSTM from zero memory over them, the last frame's action the only label (each frame
-            goes through the CNN about K times per epoch).
+            a label. "window": the K frames up to a frame, the LSTM from zero memory over them, the last
+            frame's action the only label (each frame goes through the CNN about K times per epoch).
         chunk_length: frames per chunk in sequence training, at most the shortest demo. Chunks start only
             where they fit (`drop_n_last_frames`, LeRobot's episode-aware sampler): with chunk_length equal
             to the demo length every frame weighs the same. (Chunks from any frame, padded past the episode's
