@@ -27,6 +27,7 @@ class TrainPolicyConfig:
 
     training_mode: str = "sequence"
     chunk_length: int = 100
+    goal_head: bool = False
 
 
 @dataclass

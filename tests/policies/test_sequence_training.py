@@ -163,3 +163,42 @@ def test_lerobot_train_samples_chunks_only_where_they_fit(tiny_dataset: Path) ->
         )
         assert list(sampler) == expected
     assert not hasattr(make_config(VMCConfig, training_mode="window"), "drop_n_last_frames")
+
+
+def test_goal_head_learns_the_object_position_at_each_demo_end() -> None:
+    """The goal head's target is the object's position on the chunk's last real frame (chunk 1 ends after 8
+    frames), the same on every frame of the chunk; the paper's four losses stay as they were."""
+    batch = chunk_batch()
+    policy = sequence_policy(image_shift_pad=0, goal_head=True)
+    plain = sequence_policy(image_shift_pad=0)
+    plain.load_state_dict({k: v for k, v in policy.state_dict().items() if "goal" not in k})
+    _, info = policy.forward(batch)
+    _, plain_info = plain.forward(batch)
+    for name in ("loss_delta_ee", "loss_gripper", "loss_ee_pos", "loss_obj_pos"):
+        assert info[name] == pytest.approx(plain_info[name], rel=1e-6)
+
+    outputs, _, targets = policy._sequence_outputs(batch)
+    object_end = batch[OBS_ENV_STATE][:, [11, 7, 11], 3:].diagonal(dim1=0, dim2=1).T  # last real frames
+    real = ~batch[f"{ACTION}_is_pad"]
+    expected = object_end[:, None].expand(-1, 12, -1)[real]
+    torch.testing.assert_close(targets[:, 6:], expected)
+    assert info["loss_goal_pos"] == pytest.approx(
+        torch.nn.functional.mse_loss(outputs[4], expected).item(), rel=1e-5
+    )
+    with torch.no_grad():  # acting never uses it: the same actions as the net without the head
+        policy.reset(), plain.reset()
+        obs = {IMAGE_KEY: batch[IMAGE_KEY][:, 0], OBS_STATE: batch[OBS_STATE][:, 0]}
+        assert torch.equal(policy.select_action(obs), plain.select_action(obs))
+
+
+def test_goal_head_needs_whole_demo_chunks(tiny_dataset: Path) -> None:
+    with pytest.raises(ValueError, match="goal_head needs whole demos.*training_mode=sequence"):
+        make_config(VMCConfig, goal_head=True)
+    meta = LeRobotDatasetMetadata(TINY_REPO_ID, root=tiny_dataset)
+    with pytest.raises(ValueError, match=r"every chunk must be a whole demo.*chunk_length=30"):
+        VMCPolicy(
+            make_config(VMCConfig, training_mode="sequence", chunk_length=20, goal_head=True),
+            dataset_meta=meta,
+        )
+    config = make_config(VMCConfig, training_mode="sequence", chunk_length=30, goal_head=True)
+    assert VMCPolicy(config, dataset_meta=meta).net.goal_decoder is not None

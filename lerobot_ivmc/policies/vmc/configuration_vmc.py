@@ -53,6 +53,11 @@ class VMCConfig(PreTrainedConfig):
             K frames and the LSTM re-runs from zero memory over them at every step, as in window training. A
             window-trained policy drifts with a carried memory it never saw (measured: VMC, K = 4, 12,000
             steps, 20 validation scenes: reach 35% carried vs 95% with "window"; README).
+        goal_head: beyond the paper: a fifth head predicts, from every frame, where the object is at the end
+            of its demonstration (on the target in push and pick-and-place), an MSE loss weighed like the
+            auxiliary ones. The paper's policies learn the target's position only through the action loss,
+            and place last (README). Needs sequence training on whole demos (`chunk_length` equal to every
+            demo's length), so that each chunk's last frame is its demo's end; off by default (the paper).
         image_shift_pad: training augmentation: each window's frames are shifted together by a random
             offset of up to this many pixels per axis (DrQ / RAD random shift); 0 disables it.
         optimizer_lr: Adam learning rate.
@@ -88,6 +93,7 @@ class VMCConfig(PreTrainedConfig):
     training_mode: str = "window"
     chunk_length: int = 100
     rollout_memory: str | None = None
+    goal_head: bool = False
 
     # Training augmentation (4 px of 64, as the usual 84 -> 76 random crops of pixel-based imitation).
     image_shift_pad: int = 4
@@ -124,6 +130,11 @@ class VMCConfig(PreTrainedConfig):
             raise ValueError(
                 f"chunk_length must be >= 1 frame (at most a demo's length, e.g. 100), "
                 f"got {self.chunk_length}."
+            )
+        if self.goal_head and self.training_mode != "sequence":
+            raise ValueError(
+                "goal_head needs whole demos in each sample (the object's position at the demo's end is its "
+                "target): set --policy.training_mode=sequence with --policy.chunk_length=<demo length>."
             )
         if self.rollout_memory is None:
             self.rollout_memory = "trajectory" if self.training_mode == "sequence" else "window"

@@ -3,7 +3,8 @@
 CNN over the RGB frame -> spatial feature map concatenated with the tiled proprioception -> LSTM ->
 #fc fully connected layers -> four heads: delta end-effector command (MSE), gripper close / no-op / open
 (cross-entropy), auxiliary end-effector and object positions (MSE); the four losses equally weighted
-(the paper's Eq. (loss-vmc)). `BVMCPolicy` swaps the fully connected layers for concrete dropout ones.
+(the paper's Eq. (loss-vmc)). Optionally (`goal_head`, beyond the paper) a fifth head for the object's
+position at the end of the demo. `BVMCPolicy` swaps the fully connected layers for concrete dropout ones.
 """
 
 import torch
@@ -15,6 +16,8 @@ from torch import Tensor, nn
 from lerobot_ivmc.policies.vmc.configuration_vmc import AUX_DIM, DELTA_EE_DIM, GRIPPER_COMMANDS, VMCConfig
 
 NUM_GRIPPER_CLASSES = len(GRIPPER_COMMANDS)
+# The object's position in `observation.environment_state` (after the end effector's).
+OBJECT_POS_DIM = AUX_DIM // 2
 # Rollout memory: the LSTM state (h, c), or the last K state representations (`rollout_memory`).
 Memory = tuple[Tensor, ...]
 
@@ -66,6 +69,8 @@ class VisuomotorNet(nn.Module):
         self.head = head
         # delta EE (3) | gripper logits (3) | EE position (3) | object position (3)
         self.decoder = nn.Linear(head.out_dim, DELTA_EE_DIM + NUM_GRIPPER_CLASSES + AUX_DIM)
+        # Object position at the demo's end (`goal_head`): a training target only, never used to act.
+        self.goal_decoder = nn.Linear(head.out_dim, OBJECT_POS_DIM) if config.goal_head else None
 
     def encode(self, images: Tensor, state: Tensor) -> Tensor:
         """State representation s_t: (N, 3, H, W) images, (N, D_state) -> (N, D_s)."""
@@ -117,15 +122,26 @@ class VisuomotorNet(nn.Module):
         # torch.lstm(input, hx, params, has_biases, num_layers, dropout, train, bidirectional, batch_first)
         return torch.lstm(s, (h0, h0), weights, True, 1, 0.0, self.training, False, True)[0]
 
-    def decode(self, e: Tensor, stochastic: bool, noise: list[Tensor] | None = None) -> tuple[Tensor, ...]:
+    def decode(
+        self, e: Tensor, stochastic: bool, noise: list[Tensor] | None = None, with_goal: bool = False
+    ) -> tuple[Tensor, ...]:
         """Head and decoder: (..., lstm_dim) -> delta EE, gripper logits, EE position, object position.
+
+        Args:
+            with_goal: also return the goal head's output (a net built with `goal_head`).
 
         Returns:
             (..., 3) delta EE, (..., 3) gripper logits, (..., 3) EE and (..., 3) object positions
-            (the positions in the normalised space of `observation.environment_state`).
+            (the positions in the normalised space of `observation.environment_state`), then with
+            `with_goal` (..., 3) the object's predicted position at the demo's end.
         """
-        out = self.decoder(self.head(e, stochastic, noise))
-        return out.split([DELTA_EE_DIM, NUM_GRIPPER_CLASSES, AUX_DIM // 2, AUX_DIM // 2], dim=-1)
+        features = self.head(e, stochastic, noise)
+        outputs = self.decoder(features).split(
+            [DELTA_EE_DIM, NUM_GRIPPER_CLASSES, AUX_DIM // 2, AUX_DIM // 2], dim=-1
+        )
+        if not with_goal:
+            return outputs
+        return (*outputs, self.goal_decoder(features))
 
 
 def random_shift(images: Tensor, pad: int, group: Tensor | None = None) -> Tensor:
@@ -290,7 +306,11 @@ class VMCPolicy(PreTrainedPolicy):
         s_real = self.net.encode(frames, state[real])
         s = s_real.new_zeros(*real.shape, s_real.shape[-1]).masked_scatter(real[..., None], s_real)
         e = self.net.unroll_sequence(s)[real]
-        return self.net.decode(e, stochastic=True), action[real], aux[real]
+        targets = aux
+        if self.config.goal_head:
+            targets = torch.cat([aux, demo_end_object_position(aux, real)], dim=-1)
+        outputs = self.net.decode(e, stochastic=True, with_goal=self.config.goal_head)
+        return outputs, action[real], targets[real]
 
     def _current_obs(self, batch: dict[str, Tensor]) -> tuple[Tensor, Tensor]:
         images, state = batch[self.image_key], batch[OBS_STATE]
@@ -355,20 +375,41 @@ class VMCPolicy(PreTrainedPolicy):
 
 
 def supervised_losses(outputs: tuple[Tensor, ...], action: Tensor, aux: Tensor) -> dict[str, Tensor]:
-    """The four losses of the paper's Eq. (loss-vmc), equally weighted, each a mean over the N labels.
+    """The four losses of the paper's Eq. (loss-vmc), equally weighted, each a mean over the N labels;
+    a fifth, weighed the same, when the outputs include the goal head's.
 
     Args:
-        outputs: decoded delta EE (N, 3), gripper logits (N, 3), EE (N, 3) and object (N, 3) positions.
+        outputs: decoded delta EE (N, 3), gripper logits (N, 3), EE (N, 3) and object (N, 3) positions,
+            optionally the predicted object position at the demo's end (N, 3).
         action: (N, 4) demonstrated actions.
-        aux: (N, 6) auxiliary targets (EE then object position, normalised).
+        aux: (N, 6) auxiliary targets (EE then object position, normalised), (N, 9) with the goal head's
+            target (the object's position at the demo's end) appended.
     """
-    delta_ee, logits, ee_pos, obj_pos = outputs
-    return {
+    delta_ee, logits, ee_pos, obj_pos = outputs[:4]
+    losses = {
         "loss_delta_ee": F.mse_loss(delta_ee, action[:, :DELTA_EE_DIM]),
         "loss_gripper": F.cross_entropy(logits, gripper_labels(action[:, DELTA_EE_DIM])),
-        "loss_ee_pos": F.mse_loss(ee_pos, aux[:, : AUX_DIM // 2]),
-        "loss_obj_pos": F.mse_loss(obj_pos, aux[:, AUX_DIM // 2 :]),
+        "loss_ee_pos": F.mse_loss(ee_pos, aux[:, :OBJECT_POS_DIM]),
+        "loss_obj_pos": F.mse_loss(obj_pos, aux[:, OBJECT_POS_DIM:AUX_DIM]),
     }
+    if len(outputs) == 5:
+        losses["loss_goal_pos"] = F.mse_loss(outputs[4], aux[:, AUX_DIM:])
+    return losses
+
+
+def demo_end_object_position(aux: Tensor, real: Tensor) -> Tensor:
+    """The goal head's target: the object's position on each chunk's last real frame, on every frame.
+
+    Args:
+        aux: (B, L, 6) auxiliary targets of whole-demo chunks.
+        real: (B, L) bool, True for real frames (`chunk_frames_mask`).
+
+    Returns:
+        (B, L, 3).
+    """
+    last = real.sum(dim=1) - 1
+    end = aux[torch.arange(aux.shape[0], device=aux.device), last, OBJECT_POS_DIM:]
+    return end[:, None].expand(-1, aux.shape[1], -1)
 
 
 def chunk_frames_mask(batch: dict[str, Tensor], shape: torch.Size) -> Tensor:
@@ -398,6 +439,14 @@ def check_chunk_length(config: VMCConfig, dataset_meta=None) -> None:
     if episodes is None or "length" not in episodes.column_names:
         return
     shortest = int(min(episodes["length"]))
+    longest = int(max(episodes["length"]))
+    if config.goal_head and config.chunk_length != longest:
+        raise ValueError(
+            "goal_head learns the object's position at each demo's end, so every chunk must be a whole "
+            f"demo: chunk_length={config.chunk_length} but the demos last {shortest} to {longest} frames. "
+            f"Set --policy.chunk_length={shortest} on a dataset whose demos all last that long, or drop "
+            "--policy.goal_head."
+        )
     if config.chunk_length > shortest:
         raise ValueError(
             f"chunk_length={config.chunk_length} exceeds the shortest episode of the dataset "
