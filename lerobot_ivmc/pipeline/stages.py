@@ -1,8 +1,8 @@
 """The study's stages: each one a command of this project, its own output folder and the file that marks it
 done. `build_stages` turns a `PipelineConfig` into the ordered list the runner executes.
 
-collect -> train (vmc, bvmc for each #fc) -> foresight -> threshold -> evals of the Table I rows on the same
-test scenes -> Fig. 3 episodes -> detection metrics. (The results table is written by the runner.)
+collect, then for each #fc: train vmc and bvmc -> foresight -> threshold -> evals of the Table I rows on the
+same test scenes -> Fig. 3 episodes -> detection metrics. (The results table is written by the runner.)
 """
 
 from __future__ import annotations
@@ -99,37 +99,10 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
         )
     ]
     t = cfg.train
-    for fc in t.num_fc_layers:
-        for policy_type in ("vmc", "bvmc"):
-            name = f"train_{policy_type}_fc{fc}"
-            out = root / "train" / f"{policy_type}_fc{fc}"
-            stages.append(
-                Stage(
-                    name,
-                    [
-                        "lerobot-ivmc-train",
-                        f"--policy.type={policy_type}",
-                        "--policy.device=cpu",
-                        f"--policy.num_fc_layers={fc}",
-                        *flags("policy.", asdict(t.policy)),
-                        f"--dataset.repo_id={c.dataset.repo_id or repo_id}",
-                        f"--dataset.root={data}",
-                        *flags("", {"batch_size": t.batch_size, "steps": t.steps, "seed": t.seed}),
-                        f"--save_freq={min(t.save_freq, t.steps)}",
-                        "--num_workers=0",
-                        "--eval_freq=0",
-                        "--policy.push_to_hub=false",
-                        "--wandb.enable=false",
-                        f"--output_dir={out}",
-                    ],
-                    output=out,
-                    done_file=out / CHECKPOINT / "model.safetensors",
-                    depends=["collect"],
-                    env={"ACCELERATE_MIXED_PRECISION": "bf16" if t.bf16 else "no"},
-                )
-            )
     seed = f"--seed={cfg.seed}"
+    # One #fc after the other, so that a long study has the first #fc's rows while the next one trains.
     for fc in t.num_fc_layers:
+        stages += train_stages(cfg, fc, data, c.dataset.repo_id or repo_id)
         bvmc = root / "train" / f"bvmc_fc{fc}" / CHECKPOINT
         foresight = root / "foresight" / f"fc{fc}"
         threshold = root / "threshold" / f"fc{fc}"
@@ -224,6 +197,41 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
                 output=detection,
                 done_file=detection / "detection.json",
                 depends=[fig3, f"threshold_fc{fc}"],
+            )
+        )
+    return stages
+
+
+def train_stages(cfg: PipelineConfig, fc: int, data: Path, repo_id: str) -> list[Stage]:
+    """`lerobot-ivmc-train` of vmc and bvmc with `fc` fully connected layers on the collected demos."""
+    t = cfg.train
+    stages = []
+    for policy_type in ("vmc", "bvmc"):
+        name = f"train_{policy_type}_fc{fc}"
+        out = cfg.root.resolve() / "train" / f"{policy_type}_fc{fc}"
+        stages.append(
+            Stage(
+                name,
+                [
+                    "lerobot-ivmc-train",
+                    f"--policy.type={policy_type}",
+                    "--policy.device=cpu",
+                    f"--policy.num_fc_layers={fc}",
+                    *flags("policy.", asdict(t.policy)),
+                    f"--dataset.repo_id={repo_id}",
+                    f"--dataset.root={data}",
+                    *flags("", {"batch_size": t.batch_size, "steps": t.steps, "seed": t.seed}),
+                    f"--save_freq={min(t.save_freq, t.steps)}",
+                    "--num_workers=0",
+                    "--eval_freq=0",
+                    "--policy.push_to_hub=false",
+                    "--wandb.enable=false",
+                    f"--output_dir={out}",
+                ],
+                output=out,
+                done_file=out / CHECKPOINT / "model.safetensors",
+                depends=["collect"],
+                env={"ACCELERATE_MIXED_PRECISION": "bf16" if t.bf16 else "no"},
             )
         )
     return stages
