@@ -62,7 +62,7 @@ def rollout_errors(
             errors[i, t, 0] = np.linalg.norm(predicted[:3] - env.grip_position) * 100
             errors[i, t, 1] = np.linalg.norm(predicted[3:] - env.object_position) * 100
             observations[i], _, _, _, info = env.step(actions[i])
-            succeeded[i, t] = bool(info["is_success"]) or (t > 0 and succeeded[i, t - 1])
+            succeeded[i, t] = info["is_success"]  # the env keeps a milestone once reached
     for env in envs:
         env.close()
     return errors, succeeded

@@ -16,8 +16,8 @@ from torch import Tensor, nn
 from lerobot_ivmc.policies.vmc.configuration_vmc import AUX_DIM, DELTA_EE_DIM, GRIPPER_COMMANDS, VMCConfig
 
 NUM_GRIPPER_CLASSES = len(GRIPPER_COMMANDS)
-# The object's position in `observation.environment_state` (after the end effector's).
-OBJECT_POS_DIM = AUX_DIM // 2
+# One position (x, y, z) of `observation.environment_state`: the end effector's, then the object's.
+POSITION_DIM = AUX_DIM // 2
 # Rollout memory: the LSTM state (h, c), or the last K state representations (`rollout_memory`).
 Memory = tuple[Tensor, ...]
 
@@ -70,7 +70,7 @@ class VisuomotorNet(nn.Module):
         # delta EE (3) | gripper logits (3) | EE position (3) | object position (3)
         self.decoder = nn.Linear(head.out_dim, DELTA_EE_DIM + NUM_GRIPPER_CLASSES + AUX_DIM)
         # Object position at the demo's end (`goal_head`): a training target only, never used to act.
-        self.goal_decoder = nn.Linear(head.out_dim, OBJECT_POS_DIM) if config.goal_head else None
+        self.goal_decoder = nn.Linear(head.out_dim, POSITION_DIM) if config.goal_head else None
 
     def encode(self, images: Tensor, state: Tensor) -> Tensor:
         """State representation s_t: (N, 3, H, W) images, (N, D_state) -> (N, D_s)."""
@@ -137,7 +137,7 @@ class VisuomotorNet(nn.Module):
         """
         features = self.head(e, stochastic, noise)
         outputs = self.decoder(features).split(
-            [DELTA_EE_DIM, NUM_GRIPPER_CLASSES, AUX_DIM // 2, AUX_DIM // 2], dim=-1
+            [DELTA_EE_DIM, NUM_GRIPPER_CLASSES, POSITION_DIM, POSITION_DIM], dim=-1
         )
         if not with_goal:
             return outputs
@@ -389,8 +389,8 @@ def supervised_losses(outputs: tuple[Tensor, ...], action: Tensor, aux: Tensor) 
     losses = {
         "loss_delta_ee": F.mse_loss(delta_ee, action[:, :DELTA_EE_DIM]),
         "loss_gripper": F.cross_entropy(logits, gripper_labels(action[:, DELTA_EE_DIM])),
-        "loss_ee_pos": F.mse_loss(ee_pos, aux[:, :OBJECT_POS_DIM]),
-        "loss_obj_pos": F.mse_loss(obj_pos, aux[:, OBJECT_POS_DIM:AUX_DIM]),
+        "loss_ee_pos": F.mse_loss(ee_pos, aux[:, :POSITION_DIM]),
+        "loss_obj_pos": F.mse_loss(obj_pos, aux[:, POSITION_DIM:AUX_DIM]),
     }
     if len(outputs) == 5:
         losses["loss_goal_pos"] = F.mse_loss(outputs[4], aux[:, AUX_DIM:])
@@ -408,7 +408,7 @@ def demo_end_object_position(aux: Tensor, real: Tensor) -> Tensor:
         (B, L, 3).
     """
     last = real.sum(dim=1) - 1
-    end = aux[torch.arange(aux.shape[0], device=aux.device), last, OBJECT_POS_DIM:]
+    end = aux[torch.arange(aux.shape[0], device=aux.device), last, POSITION_DIM:]
     return end[:, None].expand(-1, aux.shape[1], -1)
 
 
