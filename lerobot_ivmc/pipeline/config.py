@@ -37,7 +37,9 @@ class TrainStageConfig:
     Args:
         num_fc_layers: the #fc values of Table I to train and evaluate (the paper: 1 and 2).
         steps, batch_size, save_freq, seed: as `lerobot-train`'s flags.
-        bf16: train under bf16 autocast (`ACCELERATE_MIXED_PRECISION=bf16`).
+        bf16: train under bf16 autocast (`ACCELERATE_MIXED_PRECISION=bf16`) where the CPU runs bf16
+            natively (AVX512-BF16 or AMX); elsewhere bf16 is emulated, slower than fp32, and the study
+            trains in fp32 (the stage's command line in its log shows which).
         policy: policy fields passed as `--policy.<name>=`.
 
     Every run trains from the same seed; the final checkpoint is the one evaluated.

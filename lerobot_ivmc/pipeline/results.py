@@ -24,10 +24,11 @@ METHOD_LABELS = {
 MAX_VIDEOS = 3
 
 
-def table_rows(cfg: PipelineConfig, stages: list[Stage]) -> list[dict]:
-    """One row per (#fc, method): each subtask's rate, standard error and n, and the recoveries."""
+def table_rows(cfg: PipelineConfig, stages: list[Stage], fcs: list[int]) -> list[dict]:
+    """One row per (#fc, method) for the #fc values `fcs`: each subtask's rate, standard error and n, and
+    the recoveries."""
     rows = []
-    for fc in cfg.train.num_fc_layers:
+    for fc in fcs:
         for method in ["vmc", *cfg.recovery_modes]:
             name = (
                 eval_stage_name("vmc", fc, None) if method == "vmc" else eval_stage_name("bvmc", fc, method)
@@ -76,14 +77,23 @@ def markdown_table(rows: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def finished_fcs(cfg: PipelineConfig, timings: list[StageResult]) -> list[int]:
+    """The #fc values whose stages have all finished (a study's last stage of an #fc is its detection)."""
+    ended = {t.name for t in timings}
+    return [fc for fc in cfg.train.num_fc_layers if f"detect_fc{fc}" in ended]
+
+
 def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageResult]) -> Path:
-    """Write `<root>/results/`: `<task>.json`, `table.md`, Fig. 3 and detection plots, recovery videos."""
+    """Write `<root>/results/`: `<task>.json`, `table.md`, Fig. 3 and detection plots, recovery videos, for
+    every #fc whose stages have finished (`complete` in the JSON says whether that is all of them), so a
+    study stopped midway keeps the results of its finished halves."""
     root = cfg.root
     out = root / RESULTS_DIR
     out.mkdir(parents=True, exist_ok=True)
-    rows = table_rows(cfg, stages)
+    fcs = finished_fcs(cfg, timings)
+    rows = table_rows(cfg, stages, fcs)
     per_fc = {}
-    for fc in cfg.train.num_fc_layers:
+    for fc in fcs:
         fig3_dir = stage_output(stages, fig3_stage_name(cfg, fc))
         fig3_info = json.loads((fig3_dir / "eval_info.json").read_text())
         fig3_png = out / f"fig3_fc{fc}.png"
@@ -122,13 +132,16 @@ def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageR
     payload = {
         "task": cfg.task,
         "preset": cfg.preset,
+        "complete": fcs == cfg.train.num_fc_layers,
         "rows": rows,
         "per_fc": per_fc,
         "stage_wall_s": {t.name: round(t.wall_s, 1) for t in timings},
         "total_wall_s": round(sum(t.wall_s for t in timings), 1),
     }
     write_json_atomic(out / f"{cfg.task}.json", payload)
-    lines = [f"# {cfg.task}, preset {cfg.preset}\n", markdown_table(rows)]
+    pending = [fc for fc in cfg.train.num_fc_layers if fc not in fcs]
+    status = f"\n(#fc = {', '.join(map(str, pending))} not finished yet)\n" if pending else ""
+    lines = [f"# {cfg.task}, preset {cfg.preset}\n", markdown_table(rows), status]
     for fc, entry in per_fc.items():
         det, rho = entry["detection"], entry["fig3"]["spearman_rho"]
         rho_text = "n/a" if rho is None else f"{rho:.2f}"

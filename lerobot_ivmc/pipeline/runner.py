@@ -2,8 +2,9 @@
 fingerprint (its command, environment and its dependencies' fingerprints) and its done file exists.
 
 Records live in `<root>/stages/<name>.json`, written atomically. A stage killed midway has a "running"
-record: it is redone from a clean output folder (the collector, which resumes itself, keeps its partial
-dataset when its config is unchanged). Changing a stage's config changes its fingerprint and therefore
+record: when its config is unchanged and it can be continued (the collector keeps its staged demos; a
+training with a checkpoint continues from it) its resume command runs on its partial output, otherwise it is
+redone from a clean output folder. Changing a stage's config changes its fingerprint and therefore
 its successors' too: they rerun, the stages before it do not. `<root>/pipeline.json` names the task and
 preset; a folder of another study, or one that is not a study, is refused and left untouched.
 """
@@ -18,6 +19,7 @@ import os
 import shutil
 import subprocess
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -102,8 +104,15 @@ def fingerprint(stage: Stage, upstream: dict[str, str]) -> str:
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:16]
 
 
-def run_stages(root: Path, stages: list[Stage], log=print) -> list[StageResult]:
-    """Run the stages not yet done with their current fingerprint; return what ran and what was skipped."""
+def run_stages(
+    root: Path,
+    stages: list[Stage],
+    log=print,
+    on_stage_end: Callable[[list[StageResult]], None] | None = None,
+) -> list[StageResult]:
+    """Run the stages not yet done with their current fingerprint; return what ran and what was skipped.
+
+    `on_stage_end`, if given, is called with the results so far after every stage, run or skipped."""
     fingerprints: dict[str, str] = {}
     results = []
     for index, stage in enumerate(stages, start=1):
@@ -114,29 +123,51 @@ def run_stages(root: Path, stages: list[Stage], log=print) -> list[StageResult]:
         if record.get("fingerprint") == fp and record.get("status") == "done" and stage.done_file.exists():
             log(f"{prefix}: done earlier ({record['wall_s']:.0f} s), skipped")
             results.append(StageResult(stage.name, "skipped", record["wall_s"]))
-            continue
-        keep = stage.resumable and record.get("fingerprint") == fp
-        if stage.output.exists() and not keep:
-            shutil.rmtree(stage.output)
-        log_path = root / LOGS_DIR / f"{stage.name}.log"
-        log(f"{prefix}: running (log {log_path})")
-        write_json_atomic(record_path, {"fingerprint": fp, "status": "running", "argv": stage.argv})
-        wall = run_command(stage, log_path)
-        write_json_atomic(
-            record_path, {"fingerprint": fp, "status": "done", "wall_s": wall, "argv": stage.argv}
-        )
-        log(f"{prefix}: done in {wall:.0f} s")
-        results.append(StageResult(stage.name, "ran", wall))
+        else:
+            resume = record.get("fingerprint") == fp and stage.output.exists() and stage.can_resume()
+            if stage.output.exists() and not resume:
+                shutil.rmtree(stage.output)
+            log_path = root / LOGS_DIR / f"{stage.name}.log"
+            earlier = killed_wall_s(record, log_path) if resume else 0.0
+            log(f"{prefix}: {'resuming' if resume else 'running'} (log {log_path})")
+            write_json_atomic(
+                record_path,
+                {
+                    "fingerprint": fp,
+                    "status": "running",
+                    "argv": stage.argv,
+                    "started": time.time(),
+                    "wall_s_before": earlier,
+                },
+            )
+            wall = earlier + run_command(stage, log_path, resume)
+            write_json_atomic(
+                record_path, {"fingerprint": fp, "status": "done", "wall_s": wall, "argv": stage.argv}
+            )
+            log(f"{prefix}: done in {wall:.0f} s")
+            results.append(StageResult(stage.name, "ran", wall))
+        if on_stage_end is not None:
+            on_stage_end(results)
     return results
 
 
-def run_command(stage: Stage, log_path: Path) -> float:
-    """Run the stage's command with its output in `log_path`; its wall time, or PipelineError."""
+def killed_wall_s(record: dict, log_path: Path) -> float:
+    """Wall time the killed runs of a stage spent, from their record's start to their log's last write."""
+    if "started" not in record or not log_path.exists():
+        return record.get("wall_s_before", 0.0)
+    return record.get("wall_s_before", 0.0) + max(0.0, log_path.stat().st_mtime - record["started"])
+
+
+def run_command(stage: Stage, log_path: Path, resume: bool = False) -> float:
+    """Run the stage's command (its resume command if `resume`, the log appended to) with its output in
+    `log_path`; its wall time, or PipelineError."""
     log_path.parent.mkdir(parents=True, exist_ok=True)
-    argv = [console_script(stage.argv[0]), *stage.argv[1:]]
+    command = stage.resume_argv if resume else stage.argv
+    argv = [console_script(command[0]), *command[1:]]
     start = time.perf_counter()
-    with log_path.open("w") as log_file:
-        log_file.write(" ".join(stage.argv) + "\n\n")
+    with log_path.open("a" if resume else "w") as log_file:
+        env = [f"{key}={value}" for key, value in stage.env.items()]
+        log_file.write(("\n[resumed] " if resume else "") + " ".join([*env, *command]) + "\n\n")
         log_file.flush()
         returncode = subprocess.run(
             argv, stdout=log_file, stderr=subprocess.STDOUT, env={**os.environ, **stage.env}

@@ -13,8 +13,10 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from lerobot_ivmc.pipeline.config import PipelineConfig
+from lerobot_ivmc.policies.vmc.modeling_vmc import cpu_has_native_bf16
 
 CHECKPOINT = Path("checkpoints") / "last" / "pretrained_model"
+TRAIN_CONFIG = CHECKPOINT / "train_config.json"
 
 
 @dataclass
@@ -28,8 +30,11 @@ class Stage:
         done_file: a file the command writes last; the stage counts as done only if it exists.
         depends: names of the stages whose outputs it reads.
         env: environment variables for the command.
-        resumable: the command resumes its own partial output (the collector): keep it on a redo of the same
-            config.
+        resume_argv: the command that continues a killed run of the same config from its partial output
+            (the collector resumes itself, so its own command; a training continues from its last
+            checkpoint). None: a killed stage is redone from a clean folder.
+        resume_marker: a file the partial output must hold for `resume_argv` to apply (a training's last
+            checkpoint); None if any partial output will do.
     """
 
     name: str
@@ -38,7 +43,12 @@ class Stage:
     done_file: Path
     depends: list[str] = field(default_factory=list)
     env: dict[str, str] = field(default_factory=dict)
-    resumable: bool = False
+    resume_argv: list[str] | None = None
+    resume_marker: Path | None = None
+
+    def can_resume(self) -> bool:
+        """Whether a killed run of this stage's config can be continued rather than redone."""
+        return self.resume_argv is not None and (self.resume_marker is None or self.resume_marker.exists())
 
 
 def console_script(name: str) -> str:
@@ -95,9 +105,9 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
             ],
             output=data,
             done_file=data / "meta" / "info.json",
-            resumable=True,
         )
     ]
+    stages[0].resume_argv = stages[0].argv  # the collector resumes its staged demos itself
     t = cfg.train
     seed = f"--seed={cfg.seed}"
     # One #fc after the other, so that a long study has the first #fc's rows while the next one trains.
@@ -231,7 +241,10 @@ def train_stages(cfg: PipelineConfig, fc: int, data: Path, repo_id: str) -> list
                 output=out,
                 done_file=out / CHECKPOINT / "model.safetensors",
                 depends=["collect"],
-                env={"ACCELERATE_MIXED_PRECISION": "bf16" if t.bf16 else "no"},
+                env={"ACCELERATE_MIXED_PRECISION": "bf16" if t.bf16 and cpu_has_native_bf16() else "no"},
+                # LeRobot's own resume: steps, schedule, optimiser and RNG states from the last checkpoint.
+                resume_argv=["lerobot-ivmc-train", f"--config_path={out / TRAIN_CONFIG}", "--resume=true"],
+                resume_marker=out / TRAIN_CONFIG,
             )
         )
     return stages

@@ -1,12 +1,15 @@
 """Fault injection: `lerobot-ivmc-train` SIGKILLed after a checkpoint resumes from it and finishes the run."""
 
 import json
+import os
 import shutil
 import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
+
+import pytest
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "policies"))  # policy_helpers: the tiny dataset
 
@@ -26,10 +29,25 @@ def _train(out: Path, dataset: Path, *extra: str) -> list[str]:
     ]  # fmt: skip
 
 
-def test_killed_training_resumes_from_its_last_checkpoint(tmp_path: Path) -> None:
+# Window training, and the pipeline's recipe: whole-episode sequences under bf16 autocast.
+@pytest.mark.parametrize(
+    "extra, env",
+    [
+        ((), {}),
+        (
+            ("--policy.training_mode=sequence", "--policy.chunk_length=20", "--policy.goal_head=true"),
+            {"ACCELERATE_MIXED_PRECISION": "bf16"},
+        ),
+    ],
+    ids=["window", "sequence-bf16"],
+)
+def test_killed_training_resumes_from_its_last_checkpoint(tmp_path: Path, extra: tuple, env: dict) -> None:
     dataset = build_expert_dataset(tmp_path / "data", num_episodes=1, max_steps=20)
     out = tmp_path / "train"
-    process = subprocess.Popen(_train(out, dataset), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    env = {**os.environ, **env}
+    process = subprocess.Popen(
+        _train(out, dataset, *extra), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env
+    )
     # LeRobot points `last` at a checkpoint once it is fully written; kill after that, as a resume needs it.
     first = out / "checkpoints" / "last" / "pretrained_model" / "train_config.json"
     deadline = time.monotonic() + 300
@@ -43,7 +61,7 @@ def test_killed_training_resumes_from_its_last_checkpoint(tmp_path: Path) -> Non
     config = out / "checkpoints" / "last" / "pretrained_model" / "train_config.json"
     result = subprocess.run(
         [_train(out, dataset)[0], f"--config_path={config}", "--resume=true"],
-        capture_output=True, text=True, timeout=600,
+        capture_output=True, text=True, timeout=600, env=env,
     )  # fmt: skip
     assert result.returncode == 0, result.stderr[-3000:]
     final = out / "checkpoints" / f"{STEPS:06d}"

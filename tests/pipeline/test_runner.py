@@ -107,6 +107,85 @@ def test_a_killed_stage_is_redone_from_a_clean_folder_and_finished_ones_are_kept
     assert json.loads(record.read_text())["status"] == "done"
 
 
+def resumable_train(root: Path, sleep: float) -> list[Stage]:
+    """The chain, its train stage continuable from a checkpoint file: the resume command keeps what the
+    killed run wrote and finishes it."""
+    stages = chain(root, sleep={"train": sleep})
+    train = stages[1]
+    out = train.output
+    code = (
+        "import pathlib, sys; out = pathlib.Path(sys.argv[1]); "
+        "print('resumed from', (out / 'ckpt').read_text()); (out / 'done').write_text('resumed'); "
+        "open(sys.argv[2], 'a').write('train-resume\\n')"
+    )
+    # Half a second of work, a checkpoint and a log line, then the rest of the run.
+    train.argv[2] = train.argv[2].replace(
+        "(out / 'partial').write_text('x');",
+        "(out / 'partial').write_text('x'); time.sleep(0.5); (out / 'ckpt').write_text('7'); "
+        "print('checkpoint 7', flush=True);",
+    )
+    train.resume_argv = [PYTHON, "-c", code, str(out), str(root.parent / "runs.log")]
+    train.resume_marker = out / "ckpt"
+    return stages
+
+
+def kill_during_train(tmp_path: Path, root: Path, script_body: str) -> None:
+    """Run `script_body` (a run of the chain in `root`) in a process and SIGKILL it while train runs."""
+    script = tmp_path / "run.py"
+    script.write_text(
+        f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r})\n"
+        "from pathlib import Path\n"
+        "from test_runner import chain, resumable_train\n"
+        "from lerobot_ivmc.pipeline.runner import run_stages\n"
+        "root = Path(sys.argv[1])\n" + script_body
+    )
+    process = subprocess.Popen([sys.executable, str(script), str(root)], start_new_session=True)
+    deadline = time.monotonic() + 120
+    while not (root / "train" / "ckpt").exists() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    time.sleep(0.2)
+    os.killpg(process.pid, signal.SIGKILL)
+    process.wait(timeout=30)
+
+
+def test_a_killed_stage_with_a_checkpoint_is_continued_not_redone(tmp_path: Path) -> None:
+    root = tmp_path / "study"
+    root.mkdir()
+    kill_during_train(tmp_path, root, "run_stages(root, resumable_train(root, 60))\n")
+    assert runs(root) == ["collect"]
+    lines = []
+    results = run_stages(root, resumable_train(root, 60), log=lines.append)
+    assert statuses(results) == {"collect": "skipped", "train": "ran", "eval": "ran"}
+    assert runs(root) == ["train-resume", "eval"]
+    assert "[2/3] train: resuming" in "\n".join(lines)
+    assert (root / "train" / "partial").exists() and (root / "train" / "done").read_text() == "resumed"
+    log = (root / "logs" / "train.log").read_text()
+    assert log.index("[resumed]") < log.index("resumed from 7"), "the killed run's log is kept, then appended"
+    record = json.loads((root / STAGES_DIR / "train.json").read_text())
+    # The killed run's time up to its last log line counts.
+    assert record["status"] == "done" and record["wall_s"] >= 0.5
+
+    # A changed config is never continued from another config's checkpoint: redone from a clean folder.
+    changed = resumable_train(root, 0)
+    changed[1].argv[5] = "b"
+    (root / STAGES_DIR / "train.json").write_text(json.dumps({**record, "status": "running"}))
+    assert statuses(run_stages(root, changed, log=lambda _: None))["train"] == "ran"
+    assert runs(root) == ["train", "eval"]
+    assert (root / "train" / "done").read_text() == "b"
+
+
+def test_a_killed_stage_without_its_checkpoint_is_redone(tmp_path: Path) -> None:
+    root = tmp_path / "study"
+    root.mkdir()
+    kill_during_train(tmp_path, root, "run_stages(root, resumable_train(root, 60))\n")
+    (root / "train" / "ckpt").unlink()  # killed before its first checkpoint
+    assert runs(root) == ["collect"]
+    results = run_stages(root, resumable_train(root, 0), log=lambda _: None)
+    assert statuses(results) == {"collect": "skipped", "train": "ran", "eval": "ran"}
+    assert runs(root) == ["train", "eval"]
+    assert (root / "train" / "done").read_text() == "a"
+
+
 def test_a_failing_stage_stops_the_run_and_names_its_log(tmp_path: Path) -> None:
     root = tmp_path / "study"
     root.mkdir()

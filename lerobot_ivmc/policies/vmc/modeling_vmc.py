@@ -7,6 +7,8 @@ CNN over the RGB frame -> spatial feature map concatenated with the tiled propri
 position at the end of the demo. `BVMCPolicy` swaps the fully connected layers for concrete dropout ones.
 """
 
+import functools
+
 import torch
 import torch.nn.functional as F  # noqa: N812
 from lerobot.policies.pretrained import PreTrainedPolicy
@@ -20,6 +22,16 @@ NUM_GRIPPER_CLASSES = len(GRIPPER_COMMANDS)
 POSITION_DIM = AUX_DIM // 2
 # Rollout memory: the LSTM state (h, c), or the last K state representations (`rollout_memory`).
 Memory = tuple[Tensor, ...]
+
+
+@functools.cache
+def cpu_has_native_bf16() -> bool:
+    """Whether this CPU runs bf16 natively in oneDNN (AVX512-BF16 or AMX): bf16 autocast pays off and the
+    fused LSTM has a bf16 kernel. Elsewhere bf16 is emulated (slower than fp32)."""
+    try:
+        return bool(torch.ops.mkldnn._is_mkldnn_bf16_supported())
+    except (AttributeError, RuntimeError):  # a torch without the query: assume not
+        return False
 
 
 class MLPHead(nn.Module):
@@ -117,8 +129,16 @@ class VisuomotorNet(nn.Module):
             (B, L, lstm_dim) embeddings e_t of every step.
         """
         cell = self.lstm
-        h0 = s.new_zeros(1, s.shape[0], cell.hidden_size)
         weights = [cell.weight_ih, cell.weight_hh, cell.bias_ih, cell.bias_hh]
+        lowp = torch.is_autocast_enabled("cpu") and torch.get_autocast_dtype("cpu") == torch.bfloat16
+        if s.device.type == "cpu" and lowp and not cpu_has_native_bf16():
+            # oneDNN has no bf16 LSTM on CPUs without AVX512-BF16 / AMX (it fails to build the primitive):
+            # the LSTM runs in fp32 there, the rest of the network stays under autocast.
+            with torch.autocast("cpu", enabled=False):
+                s, weights = s.float(), [w.float() for w in weights]
+                h0 = s.new_zeros(1, s.shape[0], cell.hidden_size)
+                return torch.lstm(s, (h0, h0), weights, True, 1, 0.0, self.training, False, True)[0]
+        h0 = s.new_zeros(1, s.shape[0], cell.hidden_size)
         # torch.lstm(input, hx, params, has_biases, num_layers, dropout, train, bidirectional, batch_first)
         return torch.lstm(s, (h0, h0), weights, True, 1, 0.0, self.training, False, True)[0]
 
