@@ -3,13 +3,17 @@
 from __future__ import annotations
 
 import json
+import os
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
 
 from lerobot_ivmc.pipeline.stages import build_stages
+from lerobot_ivmc.policies.vmc.modeling_vmc import cpu_has_native_bf16
 from lerobot_ivmc.scripts.pipeline import parse_config
 
 ROWS = ["vmc", "none", "rand", "init", "min_unc"]
@@ -37,6 +41,17 @@ def test_presets_load_and_any_field_can_be_overridden(tmp_path: Path) -> None:
         "fig3_fc1" not in stages
         and "--eval_dir=" + str(stages["eval_bvmc_fc1_none"].output) in stages["detect_fc1"].argv
     )
+    # A killed training continues from its last checkpoint with LeRobot's resume.
+    train = stages["train_vmc_fc1"]
+    assert train.resume_argv == [
+        "lerobot-ivmc-train",
+        f"--config_path={train.output}/checkpoints/last/pretrained_model/train_config.json",
+        "--resume=true",
+    ]
+    assert train.resume_marker == train.output / "checkpoints/last/pretrained_model/train_config.json"
+    # bf16 only where the CPU runs it natively (elsewhere it is emulated, and slower than fp32).
+    bf16 = "bf16" if cpu_has_native_bf16() else "no"
+    assert train.env == {"ACCELERATE_MIXED_PRECISION": bf16}
     paper_stages = {s.name: s for s in build_stages(paper)}
     assert "--eval.n_episodes=800" in paper_stages["fig3_fc2"].argv
 
@@ -55,11 +70,38 @@ def test_bad_input_is_refused_with_what_to_do(capsys: pytest.CaptureFixture) -> 
     assert bad_fc.returncode == 2 and "num_fc_layers" in bad_fc.stderr
 
 
+def run_until_stage_starts(stage: str, *args: str) -> None:
+    """Run the pipeline and SIGKILL it (and its stage) as soon as `stage` starts."""
+    script = Path(sys.executable).with_name("lerobot-ivmc-pipeline")
+    out = Path(next(a for a in args if a.startswith("--output_dir=")).split("=", 1)[1])
+    process = subprocess.Popen(
+        [str(script), *args], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+    )
+    record = out / "stages" / f"{stage}.json"
+    deadline = time.monotonic() + 1200
+    while not record.exists() and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.2)
+    os.killpg(process.pid, signal.SIGKILL)
+    process.wait(timeout=60)
+    assert record.exists(), f"the study ended before {stage} started"
+
+
 def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Path) -> None:
     out = tmp_path / "push_smoke"
+    # A study of #fc = 1 and 2 stopped as #fc = 2 starts keeps the finished #fc = 1 results.
+    run_until_stage_starts(
+        "train_vmc_fc2", "--task=push", "--preset=smoke", f"--output_dir={out}", "--train.num_fc_layers=[1,2]"
+    )
+    partial = json.loads((out / "results" / "push.json").read_text())
+    assert partial["complete"] is False and {r["num_fc_layers"] for r in partial["rows"]} == {1}
+    assert "#fc = 2 not finished yet" in (out / "results" / "table.md").read_text()
+
+    # The #fc = 1 study in the same folder: every stage is done already.
     first = pipeline("--task=push", "--preset=smoke", f"--output_dir={out}")
     assert first.returncode == 0, first.stdout[-3000:] + first.stderr[-3000:]
+    assert "running" not in first.stdout
     results = json.loads((out / "results" / "push.json").read_text())
+    assert results["complete"] is True and results["rows"] == partial["rows"]
     assert [(r["num_fc_layers"], r["method"]) for r in results["rows"]] == [(1, m) for m in ROWS]
     for row in results["rows"]:
         assert set(row["subtasks"]) == {"reach", "push"}
@@ -74,11 +116,7 @@ def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Pa
         label in table for label in ("| VMC |", "| BVMC |", "BVMC + rand", "BVMC + init", "BVMC + min unc")
     )
     assert set(results["stage_wall_s"]) >= {"collect", "train_vmc_fc1", "threshold_fc1", "detect_fc1"}
-
-    again = pipeline("--task=push", "--preset=smoke", f"--output_dir={out}")
-    assert again.returncode == 0, again.stderr[-3000:]
-    assert "running" not in again.stdout
-    assert again.stdout.count("done earlier") == len(results["stage_wall_s"]), again.stdout
+    assert first.stdout.count("done earlier") == len(results["stage_wall_s"]), first.stdout
 
     before = sorted((p, p.stat().st_mtime_ns) for p in out.rglob("*"))
     other = pipeline("--task=pick_place", "--preset=smoke", f"--output_dir={out}")

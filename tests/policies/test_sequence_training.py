@@ -85,6 +85,21 @@ def test_chunk_loss_equals_a_step_by_step_rollout_from_reset_with_carried_memory
     torch.testing.assert_close(loss.detach(), expected, rtol=1e-5, atol=1e-6)
 
 
+def test_bf16_autocast_trains_on_any_cpu_close_to_fp32() -> None:
+    """`ACCELERATE_MIXED_PRECISION=bf16` autocasts the forward; CPUs without native bf16 have no bf16 LSTM
+    kernel (oneDNN fails to build one): the fused LSTM then runs in fp32 and training still works."""
+    policy = sequence_policy(BVMCPolicy, image_shift_pad=0)
+    batch = chunk_batch()
+    torch.manual_seed(1)
+    fp32, _ = policy.forward(batch)
+    torch.manual_seed(1)
+    with torch.autocast("cpu", dtype=torch.bfloat16):
+        bf16, _ = policy.forward(batch)
+    bf16.backward()
+    assert torch.isfinite(bf16) and policy.net.lstm.weight_ih.grad is not None
+    assert bf16.item() == pytest.approx(fp32.item(), rel=0.05)
+
+
 def test_padded_frames_do_not_change_the_loss() -> None:
     policy = sequence_policy(image_shift_pad=0)
     batch = chunk_batch()
