@@ -82,32 +82,26 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
     repo_id = f"local/ivmc_{task}"
     env_flags = ["--env.type=ivmc", f"--env.task={task}", f"--env.episode_length={cfg.episode_length}"]
     c = cfg.collect
-    stages = [
-        Stage(
-            "collect",
-            [
-                "lerobot-ivmc-collect",
-                f"--env.task={task}",
-                *flags("env.", {"split": c.env.split, "image_size": c.env.image_size}),
-                f"--dataset.root={data}",
-                f"--dataset.repo_id={c.dataset.repo_id or repo_id}",
-                *flags(
-                    "dataset.",
-                    {
-                        "num_episodes": c.dataset.num_episodes,
-                        "video": c.dataset.video,
-                        "push_to_hub": c.dataset.push_to_hub,
-                        "private": c.dataset.private,
-                    },
-                ),
-                *flags("", {"num_workers": c.num_workers, "seed": c.seed, "action_noise": c.action_noise}),
-                "--progress=false",
-            ],
-            output=data,
-            done_file=data / "meta" / "info.json",
-        )
+    collect = [
+        "lerobot-ivmc-collect",
+        f"--env.task={task}",
+        *flags("env.", {"split": c.env.split, "image_size": c.env.image_size}),
+        f"--dataset.root={data}",
+        f"--dataset.repo_id={c.dataset.repo_id or repo_id}",
+        *flags(
+            "dataset.",
+            {
+                "num_episodes": c.dataset.num_episodes,
+                "video": c.dataset.video,
+                "push_to_hub": c.dataset.push_to_hub,
+                "private": c.dataset.private,
+            },
+        ),
+        *flags("", {"num_workers": c.num_workers, "seed": c.seed, "action_noise": c.action_noise}),
+        "--progress=false",
     ]
-    stages[0].resume_argv = stages[0].argv  # the collector resumes its staged demos itself
+    # The collector resumes its own staged demos: a killed collection reruns its command.
+    stages = [Stage("collect", collect, data, data / "meta" / "info.json", resume_argv=collect)]
     t = cfg.train
     seed = f"--seed={cfg.seed}"
     # One #fc after the other, so that a long study has the first #fc's rows while the next one trains.
