@@ -33,6 +33,7 @@ from lerobot.policies.factory import make_policy, make_pre_post_processors
 
 from lerobot_ivmc.datasets.frame_cache import FrameCache
 from lerobot_ivmc.policies import BVMCConfig
+from lerobot_ivmc.policies.vmc.modeling_vmc import cpu_has_native_bf16
 
 
 @dataclass
@@ -146,7 +147,8 @@ def main() -> None:
     print(
         f"threads={args.threads} episodes={len(episodes)} rounds={args.rounds}x{args.steps_per_round} steps; "
         f"window batch {args.window_batch} (K={modes[0].config.n_obs_steps}), sequence batch "
-        f"{args.sequence_batch} chunks of up to {args.chunk_length} frames"
+        f"{args.sequence_batch} chunks of up to {args.chunk_length} frames; native bf16 on this CPU: "
+        f"{cpu_has_native_bf16()}"
     )
     base = statistics.median(r[1] for r in rates["window"])
     print(f"{'mode':<15} {'optim steps/s':>14} {'supervised steps/s':>19} {'vs window':>10}")
