@@ -8,6 +8,7 @@ import math
 import shutil
 from pathlib import Path
 
+from lerobot_ivmc.evaluation.compare import EVAL_INFO_FILE, paired_outcomes
 from lerobot_ivmc.pipeline.config import PipelineConfig
 from lerobot_ivmc.pipeline.paper_table import PAPER_TABLE
 from lerobot_ivmc.pipeline.runner import StageResult, write_json_atomic
@@ -29,11 +30,11 @@ def table_rows(cfg: PipelineConfig, stages: list[Stage], fcs: list[int]) -> list
     the recoveries."""
     rows = []
     for fc in fcs:
-        for method in ["vmc", *cfg.recovery_modes]:
-            name = (
-                eval_stage_name("vmc", fc, None) if method == "vmc" else eval_stage_name("bvmc", fc, method)
-            )
-            info = json.loads((stage_output(stages, name) / "eval_info.json").read_text())
+        infos = {
+            method: load_eval_info(stage_output(stages, eval_row_stage(fc, method)))
+            for method in ["vmc", *cfg.recovery_modes]
+        }
+        for method, info in infos.items():
             row = {
                 "task": cfg.task,
                 "model": "VMC" if method == "vmc" else "BVMC",
@@ -53,8 +54,24 @@ def table_rows(cfg: PipelineConfig, stages: list[Stage], fcs: list[int]) -> list
                 row["recoveries"] = info["recovery"]["num_recoveries"]
                 row["episodes_with_recovery"] = info["recovery"]["episodes_with_recovery"]
                 row["threshold"] = info["recovery"]["threshold"]
+            # The rows saw the same scenes: paired task outcomes against VMC and BVMC (exact McNemar).
+            success = list(row["subtasks"])[-1]
+            row["paired"] = {
+                f"vs_{other}": paired_outcomes(infos[other]["per_episode"], info["per_episode"], success)
+                for other in ("vmc", "none")
+                if other in infos and other != method
+            }
             rows.append(row)
     return rows
+
+
+def load_eval_info(folder: Path) -> dict:
+    return json.loads((folder / EVAL_INFO_FILE).read_text())
+
+
+def eval_row_stage(fc: int, method: str) -> str:
+    """The eval stage of a Table I row: VMC, or BVMC with a recovery mode."""
+    return eval_stage_name("vmc", fc, None) if method == "vmc" else eval_stage_name("bvmc", fc, method)
 
 
 def markdown_table(rows: list[dict]) -> str:
@@ -63,8 +80,8 @@ def markdown_table(rows: list[dict]) -> str:
     n = rows[0]["subtasks"][subtasks[0]]["n"]
     head = " | ".join(f"{s} [%] (paper)" for s in subtasks)
     lines = [
-        f"| model, {n} test scenes | #fc | {head} | recoveries (episodes) |",
-        "|---|---|" + "---|" * len(subtasks) + "---|",
+        f"| model, {n} test scenes | #fc | {head} | recoveries (episodes) | vs BVMC: gained / lost, p |",
+        "|---|---|" + "---|" * len(subtasks) + "---|---|",
     ]
     for row in rows:
         cells = []
@@ -73,7 +90,13 @@ def markdown_table(rows: list[dict]) -> str:
             paper = f" ({p['rate']:.0f})" if p else ""
             cells.append(f"{m['rate']:.1f} +- {m['stderr']:.1f}{paper}")
         rec = f"{row['recoveries']} ({row['episodes_with_recovery']})" if "recoveries" in row else "-"
-        lines.append(f"| {row['label']} | {row['num_fc_layers']} | " + " | ".join(cells) + f" | {rec} |")
+        pair = row["paired"].get("vs_none")
+        versus = (
+            f"{pair['only_second']} / {pair['only_first']}, {pair['mcnemar_exact_p']:.2f}" if pair else "-"
+        )
+        lines.append(
+            f"| {row['label']} | {row['num_fc_layers']} | " + " | ".join(cells) + f" | {rec} | {versus} |"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -95,7 +118,7 @@ def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageR
     per_fc = {}
     for fc in fcs:
         fig3_dir = stage_output(stages, fig3_stage_name(cfg, fc))
-        fig3_info = json.loads((fig3_dir / "eval_info.json").read_text())
+        fig3_info = load_eval_info(fig3_dir)
         fig3_png = out / f"fig3_fc{fc}.png"
         shutil.copyfile(fig3_dir / fig3_info["uncertainty_vs_success"]["plot"], fig3_png)
         detection_dir = stage_output(stages, f"detect_fc{fc}")

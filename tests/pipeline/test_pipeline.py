@@ -105,6 +105,13 @@ def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Pa
     assert [(r["num_fc_layers"], r["method"]) for r in results["rows"]] == [(1, m) for m in ROWS]
     for row in results["rows"]:
         assert set(row["subtasks"]) == {"reach", "push"}
+        # Paired task outcomes on the same scenes against VMC and BVMC (each row against the others).
+        others = {"vs_vmc", "vs_none"} - {f"vs_{row['method']}"}
+        assert set(row["paired"]) == others
+        for pair in row["paired"].values():
+            counts = [pair[k] for k in ("both", "only_first", "only_second", "neither")]
+            assert pair["milestone"] == "push" and sum(counts) == pair["episodes"] == 4
+            assert 0 <= pair["mcnemar_exact_p"] <= 1
         assert all(
             v["n"] == 4 and 0 <= v["rate"] <= 100 and v["stderr"] >= 0 for v in row["subtasks"].values()
         )
@@ -113,7 +120,8 @@ def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Pa
     assert "auroc" in results["per_fc"]["1"]["detection"]
     table = (out / "results" / "table.md").read_text()
     assert all(
-        label in table for label in ("| VMC |", "| BVMC |", "BVMC + rand", "BVMC + init", "BVMC + min unc")
+        label in table
+        for label in ("| VMC |", "| BVMC |", "BVMC + rand", "BVMC + init", "BVMC + min unc", "vs BVMC")
     )
     assert set(results["stage_wall_s"]) >= {"collect", "train_vmc_fc1", "threshold_fc1", "detect_fc1"}
     assert first.stdout.count("done earlier") == len(results["stage_wall_s"]), first.stdout
