@@ -372,14 +372,10 @@ def _run_collection(cfg: CollectConfig, work: Path, summary: CollectSummary) -> 
                 bar.set_postfix(frames=frames, fps=f"{frames / (time.perf_counter() - start):.0f}")
             next_attempt += 1
 
-    pool = recorder = recording = None
+    pool = recorder = None
     try:
-        # The first plan from attempt 0 is the plan after reassembling the staged episodes (they count as
-        # expected either way), so workers record it while the staged episodes are reassembled.
-        first_plan = _plan(0, target, successes, failures)
-        if cfg.num_workers > 0 and first_plan and first_plan[-1] < budget:
-            pool = _make_pool(cfg, episodes_dir)
-            recording = pool.imap(rollout.record_in_worker, first_plan)
+        if cfg.num_workers > 0 and _plan(0, target, successes, failures):
+            pool = _make_pool(cfg, episodes_dir)  # workers start up while staged episodes are reassembled
         with _quiet_datasets():
             assemble_ready()
             summary.resumed_episodes = len(assembler.episodes)
@@ -393,8 +389,6 @@ def _run_collection(cfg: CollectConfig, work: Path, summary: CollectSummary) -> 
                 if cfg.num_workers == 0:
                     recorder = recorder or rollout.Recorder(*_recorder_args(cfg, episodes_dir))
                     results = map(recorder.record, attempts)
-                elif recording is not None and attempts == first_plan:
-                    results, recording = recording, None
                 else:
                     pool = pool or _make_pool(cfg, episodes_dir)
                     results = pool.imap(rollout.record_in_worker, attempts)
