@@ -7,6 +7,7 @@ CNN over the RGB frame -> spatial feature map concatenated with the tiled propri
 position at the end of the demo. `BVMCPolicy` swaps the fully connected layers for concrete dropout ones.
 """
 
+import contextlib
 import functools
 
 import torch
@@ -131,16 +132,15 @@ class VisuomotorNet(nn.Module):
         cell = self.lstm
         weights = [cell.weight_ih, cell.weight_hh, cell.bias_ih, cell.bias_hh]
         lowp = torch.is_autocast_enabled("cpu") and torch.get_autocast_dtype("cpu") == torch.bfloat16
-        if s.device.type == "cpu" and lowp and not cpu_has_native_bf16():
-            # oneDNN has no bf16 LSTM on CPUs without AVX512-BF16 / AMX (it fails to build the primitive):
-            # the LSTM runs in fp32 there, the rest of the network stays under autocast.
-            with torch.autocast("cpu", enabled=False):
+        # oneDNN has no bf16 LSTM on CPUs without AVX512-BF16 / AMX (it fails to build the primitive): the
+        # LSTM runs in fp32 there, the rest of the network stays under autocast.
+        fp32_lstm = s.device.type == "cpu" and lowp and not cpu_has_native_bf16()
+        with torch.autocast("cpu", enabled=False) if fp32_lstm else contextlib.nullcontext():
+            if fp32_lstm:
                 s, weights = s.float(), [w.float() for w in weights]
-                h0 = s.new_zeros(1, s.shape[0], cell.hidden_size)
-                return torch.lstm(s, (h0, h0), weights, True, 1, 0.0, self.training, False, True)[0]
-        h0 = s.new_zeros(1, s.shape[0], cell.hidden_size)
-        # torch.lstm(input, hx, params, has_biases, num_layers, dropout, train, bidirectional, batch_first)
-        return torch.lstm(s, (h0, h0), weights, True, 1, 0.0, self.training, False, True)[0]
+            h0 = s.new_zeros(1, s.shape[0], cell.hidden_size)
+            # torch.lstm(input, hx, params, biases, num_layers, dropout, train, bidirectional, batch_first)
+            return torch.lstm(s, (h0, h0), weights, True, 1, 0.0, self.training, False, True)[0]
 
     def decode(
         self, e: Tensor, stochastic: bool, noise: list[Tensor] | None = None, with_goal: bool = False
