@@ -187,6 +187,8 @@ def evaluate(cfg: IvmcEvalConfig, ignore_stored_threshold: bool = False) -> dict
     if controller is not None:
         episodes = episode_traces(controller.traces, lengths_per_env, n, window)
         add_recovery_results(info, episodes, cfg, threshold, window, source, output_dir)
+        if cfg.recovery.mode == "min_unc":
+            info["recovery"]["candidate_noise"] = controller.candidate_noise
         if video_store is not None:
             info["recovery"]["videos"] = write_videos(
                 video_store, controller, lengths_per_env, cfg, threshold

@@ -39,6 +39,10 @@ class RecoveryConfig:
             point's position at the start of the episode, the arm's initial pose above the table. The paper
             says only "a sphere above the table".
         move_tolerance: init's move ends when the grip point is this close (metres) to its target.
+        candidate_noise: min_unc's candidates are the S Monte Carlo samples with N(0, noise^2) added to
+            their end-effector moves (action units). None: the noise the checkpoint's foresight head was
+            distilled with (`--foresight.action_noise`; 0, the paper's plain samples, for older heads), so
+            the head ranks the kind of actions it learned from.
         max_videos: at most this many videos of episodes with a recovery, the uncertainty trace drawn under
             the frames (frames are rendered for every episode until they are found; 0 disables).
     """
@@ -54,6 +58,7 @@ class RecoveryConfig:
     rand_step_scale: float = 0.5
     init_sphere_radius: float = 0.1
     move_tolerance: float = 0.01
+    candidate_noise: float | None = None
     max_videos: int = 4
 
     def __post_init__(self) -> None:
@@ -69,6 +74,11 @@ class RecoveryConfig:
         for name in ("backtrack_tolerance", "rand_step_scale", "init_sphere_radius", "move_tolerance"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"--recovery.{name} must be positive, got {getattr(self, name)}.")
+        if self.candidate_noise is not None and not 0.0 <= self.candidate_noise <= 1.0:
+            raise ValueError(
+                f"--recovery.candidate_noise is a standard deviation in action units, in [0, 1]; got "
+                f"{self.candidate_noise}."
+            )
         if self.rand_step_scale > 1:
             raise ValueError(
                 f"--recovery.rand_step_scale is in action units, at most 1; got {self.rand_step_scale}."

@@ -18,6 +18,7 @@ from lerobot.utils.constants import OBS_ENV_STATE
 from torch import Tensor
 
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy, MCPrediction
+from lerobot_ivmc.recovery.candidates import widen_candidates
 from lerobot_ivmc.recovery.config import RecoveryConfig
 from lerobot_ivmc.recovery.manoeuvres import (
     NORMAL,
@@ -79,7 +80,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
         window: the sliding window's length.
         env_state_stats: (mean, std) of `observation.environment_state`, to read the grip point's position
             from the normalised observation (the first three entries).
-        seed: seeds the random draws of rand and init.
+        seed: seeds the random draws of rand and init, and min_unc's candidate noise.
     """
 
     name = "bvmc_introspective"
@@ -104,6 +105,12 @@ class IntrospectiveController(BVMCRolloutWrapper):
         self.window = window
         self.env_state_mean, self.env_state_std = env_state_stats
         self.rng = np.random.default_rng(seed)
+        self.generator = torch.Generator().manual_seed(seed)
+        self.candidate_noise = (
+            recovery.candidate_noise
+            if recovery.candidate_noise is not None
+            else float(getattr(policy.config, "foresight_action_noise", 0.0))
+        )
         self.traces: list[BatchTrace] = []
         self._batch_size: int | None = None
 
@@ -144,8 +151,9 @@ class IntrospectiveController(BVMCRolloutWrapper):
         write_memory_row(memory, row, values)
 
     def _min_unc_action(self, prediction: MCPrediction, row: int) -> np.ndarray:
-        """The sampled action of `row` with the lowest foreseen uncertainty of the next step."""
-        candidates = prediction.samples[row : row + 1]  # (1, S, 4)
+        """The candidate action of `row` (a sample, widened by `candidate_noise`) with the lowest foreseen
+        uncertainty of the next step."""
+        candidates = widen_candidates(prediction.samples[row : row + 1], self.candidate_noise, self.generator)
         foreseen = self.policy.foresee(prediction.embedding[row : row + 1], candidates)
         return candidates[0, int(foreseen[0].argmin())].cpu().numpy()
 

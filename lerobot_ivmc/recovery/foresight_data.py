@@ -1,8 +1,9 @@
 """Distillation data for the uncertainty foresight head (the paper's Section "Experiments").
 
 A trained Bayesian VMC is deployed on training scenes; at every step it executes one action drawn from
-its Monte Carlo samples (not the mean, so the data covers the spread of actions recovery will rank), and
-each step gives a record (e_t, a_t, uncertainty at t + 1). Episodes end on task success or at 200 steps.
+its Monte Carlo samples (not the mean, so the data covers the spread of actions recovery will rank),
+optionally widened by Gaussian noise (`candidates.widen_candidates`), and each step gives a record
+(e_t, a_t, uncertainty at t + 1). Episodes end on task success or at 200 steps.
 
 Collection runs LeRobot's own `rollout` one batch of episodes at a time and writes each batch as a shard
 (`shard_00000.npz`, ...) atomically, so a killed collection resumes at the first missing shard and never
@@ -23,24 +24,28 @@ from torch import Tensor
 from tqdm import tqdm
 
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
+from lerobot_ivmc.recovery.candidates import widen_candidates
 from lerobot_ivmc.recovery.rollout_wrapper import BVMCRolloutWrapper
 
 SPEC_FILE = "spec.json"
 
 
 class SampledActionRecorder(BVMCRolloutWrapper):
-    """Executes one Monte Carlo sample per step (drawn uniformly among the S) and records e_t, a_t, u_t.
+    """Executes one Monte Carlo sample per step (drawn uniformly among the S, plus `action_noise`) and
+    records e_t, a_t, u_t.
 
     Args:
         policy: the Bayesian VMC.
-        seed: seeds the choice of the executed sample.
+        seed: seeds the choice of the executed sample and its noise.
+        action_noise: standard deviation (action units) of the noise on the sample's end-effector move.
     """
 
     name = "bvmc_distillation"
 
-    def __init__(self, policy: BVMCPolicy, seed: int):
+    def __init__(self, policy: BVMCPolicy, seed: int, action_noise: float = 0.0):
         super().__init__(policy)
         self.generator = torch.Generator().manual_seed(seed)
+        self.action_noise = action_noise
         self.embeddings: list[Tensor] = []
         self.actions: list[Tensor] = []
         self.uncertainties: list[Tensor] = []
@@ -55,6 +60,7 @@ class SampledActionRecorder(BVMCRolloutWrapper):
         samples = prediction.samples  # (B, S, 4)
         index = torch.randint(samples.shape[1], (samples.shape[0],), generator=self.generator)
         action = samples[torch.arange(samples.shape[0]), index.to(samples.device)]
+        action = widen_candidates(action, self.action_noise, self.generator)
         self.embeddings.append(prediction.embedding.float().cpu())
         self.actions.append(action.float().cpu())
         self.uncertainties.append(prediction.uncertainty.float().cpu())
@@ -140,6 +146,7 @@ def collect_distillation_data(
     num_trajectories: int,
     seed: int,
     spec: dict,
+    action_noise: float = 0.0,
 ) -> list[Path]:
     """Collect `num_trajectories` episodes (rounded up to whole batches of the vector env) into shards.
 
@@ -154,6 +161,7 @@ def collect_distillation_data(
         num_trajectories: episodes to collect.
         seed: the base seed.
         spec: settings stored with the shards.
+        action_noise: noise on the executed samples' end-effector moves (`SampledActionRecorder`).
 
     Returns:
         The shard paths, in order.
@@ -167,7 +175,7 @@ def collect_distillation_data(
     ):
         batch_seed = int(np.random.SeedSequence([seed, index]).generate_state(1)[0])
         torch.manual_seed(batch_seed)  # the Monte Carlo masks: a resumed batch draws the same ones
-        recorder = SampledActionRecorder(policy, seed=batch_seed)
+        recorder = SampledActionRecorder(policy, seed=batch_seed, action_noise=action_noise)
         seeds = list(range(seed + index * batch_size, seed + (index + 1) * batch_size))
         with torch.no_grad():
             result = rollout(env, recorder, *processors, seeds=seeds)

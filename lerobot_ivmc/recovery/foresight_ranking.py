@@ -16,6 +16,7 @@ from tqdm import tqdm
 
 from lerobot_ivmc.envs import MAX_EPISODE_STEPS
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
+from lerobot_ivmc.recovery.candidates import widen_candidates
 
 
 def _batched(observations: list[dict]) -> dict:
@@ -42,6 +43,8 @@ def measure_action_ranking(
     seeds: list[int],
     num_states: int,
     every: int = 15,
+    action_noise: float = 0.0,
+    seed: int = 0,
 ) -> dict[str, float]:
     """Compare the head's ranking of each step's S candidate actions with measured next-step uncertainty.
 
@@ -52,6 +55,8 @@ def measure_action_ranking(
         seeds: scenes to visit (reset seeds), used in order until `num_states` states are measured.
         num_states: states to measure.
         every: measure every this many steps along each episode (starting at step `every`).
+        action_noise: the candidates are the S samples widened by this noise, as min_unc ranks them.
+        seed: seeds that noise.
 
     Returns:
         argmin_match_rate (head's argmin == measured argmin), its chance level 1/S, the measurement's own
@@ -62,6 +67,7 @@ def measure_action_ranking(
     matches, self_matches, percentiles, rhos = [], [], [], []
     chosen_u, candidate_u, best_u = [], [], []
     num_samples = policy.config.num_samples
+    generator = torch.Generator().manual_seed(seed)
     progress = tqdm(total=num_states, desc="Foresight ranking (states)")
     for seed in seeds:
         if len(matches) >= num_states:
@@ -72,7 +78,7 @@ def measure_action_ranking(
             prediction = policy.sample(to_policy_batch(_batched([observation])))
             if step > 0 and step % every == 0:
                 memory = policy.get_memory()
-                candidates = prediction.samples  # (1, S, 4)
+                candidates = widen_candidates(prediction.samples, action_noise, generator)  # (1, S, 4)
                 foreseen = policy.foresee(prediction.embedding, candidates)[0].cpu().numpy()
                 snapshot = env.get_snapshot()
                 next_observations = []
@@ -109,6 +115,7 @@ def measure_action_ranking(
     return {
         "num_states": len(matches),
         "num_candidates": num_samples,
+        "candidate_noise": action_noise,
         "argmin_match_rate": float(np.mean(matches)),
         "chance_match_rate": 1.0 / num_samples,
         "measurement_self_match_rate": float(np.mean(self_matches)),

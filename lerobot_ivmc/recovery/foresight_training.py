@@ -35,6 +35,9 @@ class ForesightConfig:
         ranking_states: states at which the head's ranking of the S candidate actions is checked against
             trying each in a copy of the env (0 skips the check).
         ranking_every: those states are every this many steps along Bayesian VMC episodes.
+        action_noise: standard deviation (action units) of Gaussian noise added to the end-effector move
+            of each executed sample during distillation, and to the candidates of the ranking check; stored
+            in the checkpoint as the noise min_unc widens its candidates with. 0 = the paper's samples.
     """
 
     num_trajectories: int = 200
@@ -46,6 +49,7 @@ class ForesightConfig:
     heldout_fraction: float = 0.1
     ranking_states: int = 100
     ranking_every: int = 15
+    action_noise: float = 0.0
 
     def __post_init__(self) -> None:
         if self.num_trajectories < 2:
@@ -58,6 +62,11 @@ class ForesightConfig:
             raise ValueError(f"--foresight.heldout_fraction must lie in (0, 1), got {self.heldout_fraction}.")
         if self.ranking_states < 0 or self.ranking_every < 1:
             raise ValueError("--foresight.ranking_states must be >= 0 and --foresight.ranking_every >= 1.")
+        if not 0.0 <= self.action_noise <= 1.0:
+            raise ValueError(
+                f"--foresight.action_noise is a standard deviation in action units, in [0, 1]; got "
+                f"{self.action_noise}."
+            )
 
 
 def split_by_trajectory(

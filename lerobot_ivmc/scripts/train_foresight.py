@@ -100,6 +100,8 @@ def run(cfg: ForesightPipelineConfig) -> dict:
         "seed": cfg.seed,
         "num_samples": policy.config.num_samples,
     }
+    if cfg.foresight.action_noise:  # absent when 0, so collections made before the option still resume
+        spec["action_noise"] = cfg.foresight.action_noise
     shards = collect_distillation_data(
         vector_env,
         policy,
@@ -108,6 +110,7 @@ def run(cfg: ForesightPipelineConfig) -> dict:
         cfg.foresight.num_trajectories,
         cfg.seed,
         spec,
+        cfg.foresight.action_noise,
     )
     vector_env.close()
     records = load_shards(shards)
@@ -116,6 +119,7 @@ def run(cfg: ForesightPipelineConfig) -> dict:
     heldout = {k: v[heldout_mask] for k, v in records.items()}
     torch.manual_seed(cfg.seed)  # the head's initial weights
     head = policy.attach_foresight()
+    policy.config.foresight_action_noise = cfg.foresight.action_noise
     losses = train_foresight(head, train, cfg.foresight, cfg.seed)
     report = {
         "spec": spec,
@@ -138,6 +142,8 @@ def run(cfg: ForesightPipelineConfig) -> dict:
             seeds,
             cfg.foresight.ranking_states,
             cfg.foresight.ranking_every,
+            cfg.foresight.action_noise,
+            cfg.seed,
         )
         env.close()
     checkpoint.mkdir(parents=True)
@@ -165,7 +171,10 @@ def foresight_main(cfg: ForesightPipelineConfig) -> dict:
             f"{ranking['argmin_match_rate']:.3f} "
             f"(chance {ranking['chance_match_rate']:.3f}, measurement self-agreement "
             f"{ranking['measurement_self_match_rate']:.3f}), percentile of choice "
-            f"{ranking['mean_percentile_of_choice']:.3f} (chance 0.5)"
+            f"{ranking['mean_percentile_of_choice']:.3f} (chance 0.5); measured next uncertainty of its "
+            f"choice {ranking['measured_u_of_choice']:.4f}, of a random candidate "
+            f"{ranking['measured_u_mean_candidate']:.4f}, of the best "
+            f"{ranking['measured_u_best_candidate']:.4f}"
         )
     print(f"Checkpoint with the foresight head: {Path(cfg.output_dir) / CHECKPOINT_DIR}")
     return report

@@ -128,6 +128,31 @@ def test_min_unc_executes_the_candidate_with_the_lowest_foreseen_uncertainty() -
     env.close()
 
 
+def test_min_unc_widens_its_candidates_with_the_noise_the_head_was_distilled_with() -> None:
+    policy = scripted_policy([0.0], move=[0.0, 0.0, 0.0])
+    policy.config.foresight_action_noise = 0.4
+    # A head preferring the largest +x move: with widened candidates it picks a move no sample proposed.
+    policy.foresee = lambda e, a: -a[..., 0]
+    env = make_task_env("pick_place", image_size=64)
+    observation, _ = env.reset(seed=1)
+    prediction = policy.sample(to_batch(observation))
+    env.close()
+
+    def controller(candidate_noise):
+        cfg = RecoveryConfig(mode="min_unc", candidate_noise=candidate_noise)
+        return IntrospectiveController(policy, cfg, threshold=1.0, window=20, env_state_stats=IDENTITY_STATS)
+
+    default = controller(None)
+    assert default.candidate_noise == 0.4
+    chosen = default._min_unc_action(prediction, 0)
+    samples = prediction.samples[0].numpy()
+    assert chosen[0] > samples[:, 0].max() + 0.1  # beyond every plain sample
+    assert chosen[3] in samples[:, 3]  # the gripper command is a sample's, never perturbed
+    # An explicit 0 restores the paper's choice among the plain samples.
+    plain = controller(0.0)._min_unc_action(prediction, 0)
+    assert any((plain == sample).all() for sample in samples)
+
+
 @pytest.mark.parametrize("mode, phase", [("rand", RANDOM_MOVES), ("init", MOVE_TO_INIT)])
 def test_rand_and_init_move_then_reset_the_memory(mode: str, phase: int) -> None:
     stream = [0.0] * 5 + [1.0] + [0.0] * 100

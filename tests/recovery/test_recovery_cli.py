@@ -137,6 +137,42 @@ def test_same_seed_gives_identical_results(tiny_recovery_checkpoint: Path, tmp_p
         np.testing.assert_array_equal(x["uncertainty"], y["uncertainty"])
 
 
+def test_a_head_distilled_on_widened_actions_makes_min_unc_widen_its_candidates(
+    tiny_bvmc: Path, tiny_recovery_checkpoint: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "noisy"
+    flags = [
+        f"--policy.path={tiny_bvmc}",
+        *ENV_FLAGS,
+        "--foresight.num_trajectories=2",
+        "--foresight.epochs=1",
+        "--foresight.ranking_states=1",
+        "--foresight.ranking_every=5",
+        "--eval.batch_size=2",
+        "--eval.n_episodes=2",
+        "--seed=0",
+    ]
+    report = run_main("lerobot-ivmc-foresight", *flags, "--foresight.action_noise=0.3", f"--output_dir={out}")
+    assert report["spec"]["action_noise"] == 0.3 and report["action_ranking"]["candidate_noise"] == 0.3
+    checkpoint = out / "pretrained_model"
+    assert BVMCPolicy.from_pretrained(checkpoint).config.foresight_action_noise == 0.3
+    # The executed actions were widened: the recorded ones scatter far more than the plain samples do.
+    noisy = np.load(out / "distillation" / "shard_00000.npz")["action"][:, :3]
+    plain = np.load(tiny_bvmc.parents[3] / "foresight" / "distillation" / "shard_00000.npz")["action"][:, :3]
+    assert np.abs(np.diff(noisy, axis=0)).mean() > 2 * np.abs(np.diff(plain, axis=0)).mean()
+    threshold = ThresholdRecord.load(tiny_recovery_checkpoint).threshold
+    info = evaluate(
+        checkpoint, tmp_path / "eval", "--recovery.mode=min_unc", f"--recovery.threshold={threshold}"
+    )
+    assert info["recovery"]["candidate_noise"] == 0.3
+    # A resume with another noise would mix two kinds of records: refused, the shards left as they were.
+    shutil.rmtree(checkpoint)
+    before = sorted(p.name for p in (out / "distillation").iterdir())
+    with pytest.raises(ValueError, match="other settings"):
+        run_main("lerobot-ivmc-foresight", *flags, "--foresight.action_noise=0.1", f"--output_dir={out}")
+    assert sorted(p.name for p in (out / "distillation").iterdir()) == before
+
+
 def test_bad_requests_say_what_to_do(
     tiny_bvmc: Path, tiny_foresight: Path, tiny_recovery_checkpoint, tmp_path
 ):
@@ -155,6 +191,7 @@ def test_bad_requests_say_what_to_do(
     config = json.loads((vmc / "config.json").read_text())
     bvmc_only = ("dropout_init", "dropout_temperature", "length_scale", "dataset_size", "mc_sampling")
     bvmc_only += ("num_samples", "uncertainty_lambda", "foresight_enabled", "foresight_hidden_dim")
+    bvmc_only += ("foresight_action_noise",)
     config = {k: v for k, v in config.items() if k not in bvmc_only} | {"type": "vmc"}
     (vmc / "config.json").write_text(json.dumps(config))
     cases.append((vmc, ["--recovery.mode=init", "--recovery.threshold=0.1"], "needs a bvmc checkpoint"))

@@ -34,6 +34,9 @@ class BVMCConfig(VMCConfig):
             trained by `lerobot-ivmc-foresight` after the policy; False for a freshly trained policy.
         foresight_hidden_dim: width of the hidden layer of the foresight head's two fully connected layers
             (the paper says only "small"; 64 is half the LSTM width).
+        foresight_action_noise: standard deviation (action units) of the Gaussian noise on the end-effector
+            move of the sampled actions the head was distilled on (`--foresight.action_noise`), and so of
+            the candidates min_unc ranks with it by default; 0 = the paper's plain Monte Carlo samples.
     """
 
     # Concrete dropout (training).
@@ -50,6 +53,7 @@ class BVMCConfig(VMCConfig):
     # Uncertainty foresight (trained by distillation after the policy: `lerobot-ivmc-foresight`).
     foresight_enabled: bool = False
     foresight_hidden_dim: int = 64
+    foresight_action_noise: float = 0.0
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -69,3 +73,5 @@ class BVMCConfig(VMCConfig):
             raise ValueError(f"uncertainty_lambda must lie in [0, 1], got {self.uncertainty_lambda}.")
         if self.foresight_hidden_dim <= 0:
             raise ValueError(f"foresight_hidden_dim must be positive, got {self.foresight_hidden_dim}.")
+        if self.foresight_action_noise < 0:
+            raise ValueError(f"foresight_action_noise must be >= 0, got {self.foresight_action_noise}.")
