@@ -111,6 +111,11 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
         foresight = root / "foresight" / f"fc{fc}"
         threshold = root / "threshold" / f"fc{fc}"
         f = cfg.foresight
+        distillation = asdict(f.foresight)
+        if not distillation[
+            "action_noise"
+        ]:  # the paper's samples: omitted so older studies keep fingerprints
+            del distillation["action_noise"]
         stages.append(
             Stage(
                 f"foresight_fc{fc}",
@@ -118,7 +123,7 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
                     "lerobot-ivmc-foresight",
                     f"--policy.path={bvmc}",
                     *env_flags,
-                    *flags("foresight.", asdict(f.foresight)),
+                    *flags("foresight.", distillation),
                     f"--eval.batch_size={f.batch_size}",
                     f"--eval.n_episodes={f.batch_size}",
                     seed,

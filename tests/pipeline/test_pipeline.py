@@ -54,6 +54,11 @@ def test_presets_load_and_any_field_can_be_overridden(tmp_path: Path) -> None:
     assert train.env == {"ACCELERATE_MIXED_PRECISION": bf16}
     paper_stages = {s.name: s for s in build_stages(paper)}
     assert "--eval.n_episodes=800" in paper_stages["fig3_fc2"].argv
+    # Widened min_unc candidates reach the distillation; at 0 (the paper's samples) the flag is left out, so
+    # studies started before the option keep their fingerprints.
+    assert not any("action_noise" in a for a in stages["foresight_fc1"].argv)
+    widened = parse_config(["--task=push", "--preset=lite", "--foresight.foresight.action_noise=0.3"])
+    assert "--foresight.action_noise=0.3" in {s.name: s for s in build_stages(widened)}["foresight_fc1"].argv
 
 
 def test_bad_input_is_refused_with_what_to_do(capsys: pytest.CaptureFixture) -> None:
