@@ -19,7 +19,7 @@ from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
 from lerobot_ivmc.recovery.candidates import widen_candidates
 
 
-def _batched(observations: list[dict]) -> dict:
+def batch_observations(observations: list[dict]) -> dict:
     """Stack single-env observations into the batched numpy dict a vector env returns."""
     first = observations[0]
     out: dict = {}
@@ -75,7 +75,7 @@ def measure_action_ranking(
         observation, _ = env.reset(seed=seed)
         policy.reset()
         for step in range(MAX_EPISODE_STEPS):
-            prediction = policy.sample(to_policy_batch(_batched([observation])))
+            prediction = policy.sample(to_policy_batch(batch_observations([observation])))
             if step > 0 and step % every == 0:
                 memory = policy.get_memory()
                 candidates = widen_candidates(prediction.samples, action_noise, generator)  # (1, S, 4)
@@ -86,7 +86,7 @@ def measure_action_ranking(
                     env.set_snapshot(snapshot)
                     next_observations.append(env.step(action)[0])
                 env.set_snapshot(snapshot)
-                batch = to_policy_batch(_batched(next_observations))
+                batch = to_policy_batch(batch_observations(next_observations))
                 measured = []
                 for _ in range(2):  # two independent Monte Carlo measurements
                     policy.set_memory(_expand_memory(memory, num_samples))

@@ -1,0 +1,204 @@
+"""`lerobot-ivmc-inspect`: one episode step by step, the world next to what the policy believes.
+
+Why did an episode fail? Runs a vmc or bvmc checkpoint on one scene (the scene of `lerobot-ivmc-eval`'s
+episode with that seed) and records per step the true grip, object and target positions, the grasp, the
+executed action, the Bayesian VMC's uncertainty, and the network's own position estimates: its auxiliary
+end-effector and object predictions and, for a net trained with `goal_head`, where it believes the object
+must end up. Writes `inspect_seed<seed>.json` and a plot of true against believed positions.
+
+    lerobot-ivmc-inspect --policy.path=<checkpoint> --env.type=ivmc --env.task=pick_place \\
+        --env.split=test --episode_seed=0 --output_dir=outputs/inspect
+"""
+
+import json
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+from lerobot.configs import parser
+from lerobot.configs.eval import EvalPipelineConfig
+
+from lerobot_ivmc.envs import make_task_env
+from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
+from lerobot_ivmc.evaluation.compatibility import check_policy_matches_env
+from lerobot_ivmc.evaluation.eval_subtasks import env_state_stats
+from lerobot_ivmc.evaluation.loading import load_policy
+from lerobot_ivmc.policies.vmc.modeling_vmc import deterministic_action
+from lerobot_ivmc.recovery.foresight_ranking import batch_observations
+from lerobot_ivmc.scripts.errors import cli_main
+
+logger = logging.getLogger(__name__)
+AXES = "xyz"
+
+
+@dataclass
+class InspectConfig(EvalPipelineConfig):
+    """`lerobot-eval`'s policy, env and output folder, plus the scene and how often to print.
+
+    Args:
+        episode_seed: the scene's reset seed (`lerobot-ivmc-eval --seed=s` runs seeds s, s + 1, ...; its
+            `eval_info.json` lists each episode's seed).
+        print_every: print a line every this many steps (0: none).
+    """
+
+    episode_seed: int = 0
+    print_every: int = 10
+
+
+def check_inputs(cfg: InspectConfig) -> None:
+    if not isinstance(cfg.env, IvmcEnv):
+        raise ValueError(f"lerobot-ivmc-inspect runs on --env.type=ivmc, got {cfg.env.type!r}.")
+    if cfg.policy is None or cfg.policy.pretrained_path is None:
+        raise ValueError("Pass --policy.path=<vmc or bvmc checkpoint folder>.")
+    if cfg.policy.type not in ("vmc", "bvmc"):
+        raise ValueError(f"lerobot-ivmc-inspect reads vmc and bvmc networks, got {cfg.policy.type!r}.")
+    if cfg.print_every < 0:
+        raise ValueError(f"--print_every must be >= 0, got {cfg.print_every}.")
+    existing = output_paths(cfg)[0]
+    if existing.exists():
+        raise FileExistsError(
+            f"{existing} exists: pass another --output_dir (results are never overwritten)."
+        )
+    check_policy_matches_env(cfg.policy, cfg.env)
+
+
+def output_paths(cfg: InspectConfig) -> tuple[Path, Path]:
+    """The episode's JSON record and plot."""
+    stem = Path(cfg.output_dir) / f"inspect_seed{cfg.episode_seed}"
+    return stem.with_suffix(".json"), stem.with_suffix(".png")
+
+
+@torch.no_grad()
+def inspect_episode(cfg: InspectConfig) -> dict:
+    """Run the episode and return its per-step record (lists, one entry per step) and final milestones."""
+    check_inputs(cfg)
+    loaded = load_policy(cfg)
+    policy = loaded.policy
+    mean, std = env_state_stats(loaded.preprocessor)
+    env = make_task_env(
+        cfg.env.task, **{k: v for k, v in cfg.env.gym_kwargs.items() if k != "max_episode_steps"}
+    )
+    torch.manual_seed(cfg.seed or 0)  # the Monte Carlo masks
+    observation, _ = env.reset(seed=cfg.episode_seed)
+    policy.reset()
+    bayesian = cfg.policy.type == "bvmc"
+    with_goal = bool(getattr(policy.config, "goal_head", False))
+    keys = ["grip", "object", "target", "believed_grip", "believed_object", "action", "grasped"]
+    record: dict[str, list] = {k: [] for k in keys + (["believed_goal"] if with_goal else [])}
+    record["uncertainty"] = []
+    info: dict = {}
+    for step in range(cfg.env.episode_length):
+        batch = loaded.to_policy_batch(batch_observations([observation]))
+        if bayesian:
+            prediction = policy.sample(batch)
+            embedding, action = prediction.embedding, prediction.mean_action[0]
+            record["uncertainty"].append(float(prediction.uncertainty[0]))
+        else:
+            embedding = policy.step_embedding(batch)
+            delta_ee, logits, *_ = policy.net.decode(embedding, stochastic=False)
+            action = deterministic_action(delta_ee, logits)[0]
+            record["uncertainty"].append(None)
+        outputs = policy.net.decode(embedding, stochastic=False, with_goal=with_goal)
+        to_world = lambda normalised, part: (  # noqa: E731
+            normalised[0].float().cpu() * std[part] + mean[part]
+        ).tolist()
+        record["believed_grip"].append(to_world(outputs[2], slice(0, 3)))
+        record["believed_object"].append(to_world(outputs[3], slice(3, 6)))
+        if with_goal:
+            record["believed_goal"].append(to_world(outputs[4], slice(3, 6)))
+        record["grip"].append(env.grip_position.tolist())
+        record["object"].append(env.object_position.tolist())
+        record["target"].append(env.target_position.tolist())
+        record["grasped"].append(bool(env.is_grasped()))
+        record["action"].append(action.float().cpu().tolist())
+        if cfg.print_every and step % cfg.print_every == 0:
+            print(format_step(step, record))
+        observation, _, terminated, _, info = env.step(action.float().cpu().numpy())
+        if terminated:
+            break
+    env.close()
+    return {
+        "task": cfg.env.task,
+        "split": cfg.env.split,
+        "episode_seed": cfg.episode_seed,
+        "policy_path": str(cfg.policy.pretrained_path),
+        "steps": len(record["grip"]),
+        "milestones": info.get("subtasks", {}),
+        "success": bool(info.get("is_success", False)),
+        "per_step": record,
+    }
+
+
+def format_step(step: int, record: dict) -> str:
+    """One printed line: true and believed positions (cm are enough to see a drift) and the action."""
+
+    def fmt(values: list[float]) -> str:
+        return "(" + ", ".join(f"{v:.3f}" for v in values) + ")"
+
+    line = (
+        f"step {step:3d} grip {fmt(record['grip'][-1])} object {fmt(record['object'][-1])} "
+        f"believed object {fmt(record['believed_object'][-1])}"
+    )
+    if "believed_goal" in record:
+        line += f" goal {fmt(record['target'][-1])} believed {fmt(record['believed_goal'][-1])}"
+    line += f" grasped {int(record['grasped'][-1])} action {fmt(record['action'][-1])}"
+    if record["uncertainty"][-1] is not None:
+        line += f" u {record['uncertainty'][-1]:.3f}"
+    return line
+
+
+def plot_episode(result: dict, path: Path) -> None:
+    """Per axis: true grip / object / target against the network's beliefs; below, the uncertainty."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    record = result["per_step"]
+    has_u = record["uncertainty"] and record["uncertainty"][0] is not None
+    fig, axes = plt.subplots(4 if has_u else 3, 1, figsize=(8, 9), sharex=True)
+    steps = np.arange(result["steps"])
+    series = [
+        ("grip", "tab:blue", "-"),
+        ("believed_grip", "tab:blue", ":"),
+        ("object", "tab:red", "-"),
+        ("believed_object", "tab:red", ":"),
+        ("target", "tab:green", "-"),
+        ("believed_goal", "tab:green", ":"),
+    ]
+    for axis, ax in enumerate(axes[:3]):
+        for key, color, style in series:
+            if key in record:
+                ax.plot(steps, np.asarray(record[key])[:, axis], color=color, linestyle=style, label=key)
+        ax.set_ylabel(f"{AXES[axis]} [m]")
+    axes[0].legend(fontsize=7, ncol=3)
+    if has_u:
+        axes[3].plot(steps, record["uncertainty"], color="black")
+        axes[3].set_ylabel("uncertainty")
+    axes[-1].set_xlabel("step")
+    milestones = ", ".join(f"{k} {'yes' if v else 'no'}" for k, v in result["milestones"].items())
+    fig.suptitle(f"{result['task']} {result['split']} scene {result['episode_seed']}: {milestones}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+@parser.wrap()
+def inspect_main(cfg: InspectConfig) -> dict:
+    result = inspect_episode(cfg)
+    record_path, plot_path = output_paths(cfg)
+    record_path.parent.mkdir(parents=True, exist_ok=True)
+    record_path.write_text(json.dumps(result, indent=1))
+    plot_episode(result, plot_path)
+    print(f"{result['steps']} steps, milestones {result['milestones']}; wrote {record_path} and {plot_path}")
+    return result
+
+
+def main() -> None:
+    cli_main(inspect_main)
+
+
+if __name__ == "__main__":
+    main()
