@@ -37,6 +37,9 @@ AXES = "xyz"
 class InspectConfig(EvalPipelineConfig):
     """`lerobot-eval`'s policy, env and output folder, plus the scene and how often to print.
 
+    The scene is exactly the eval episode's; the run is not: the policy acts alone (one env, no recovery)
+    and `--seed` seeds its own Monte Carlo masks, so a bvmc episode can end otherwise than in the eval.
+
     Args:
         episode_seed: the scene's reset seed (`lerobot-ivmc-eval --seed=s` runs seeds s, s + 1, ...; its
             `eval_info.json` lists each episode's seed).

@@ -112,9 +112,8 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
         threshold = root / "threshold" / f"fc{fc}"
         f = cfg.foresight
         distillation = asdict(f.foresight)
-        if not distillation[
-            "action_noise"
-        ]:  # the paper's samples: omitted so older studies keep fingerprints
+        # At 0 (the paper's plain samples) the flag is left out, so older studies keep their fingerprints.
+        if distillation["action_noise"] == 0:
             del distillation["action_noise"]
         stages.append(
             Stage(

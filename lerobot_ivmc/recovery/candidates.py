@@ -1,8 +1,8 @@
 """The candidate actions min_unc ranks: the Monte Carlo samples, optionally widened by Gaussian noise.
 
 With a small learned dropout rate the S samples of a step are near-identical (pick_place lite: p = 1.5%;
-two independent measurements of their next-step uncertainty agree on the best one no more often than
-chance), so the paper's choice among them is no choice at all. Adding noise of a few centimetres to each
+two independent measurements of their next-step uncertainty agree on the best one in 5% of states, chance
+2%), so the paper's choice among them is hardly a choice. Adding noise of a few centimetres to each
 sample's end-effector move spreads the candidates; the foresight head must then be distilled on actions
 perturbed the same way (`--foresight.action_noise`) to rank them.
 """

@@ -74,6 +74,11 @@ class RecoveryConfig:
         for name in ("backtrack_tolerance", "rand_step_scale", "init_sphere_radius", "move_tolerance"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"--recovery.{name} must be positive, got {getattr(self, name)}.")
+        if self.candidate_noise is not None and self.mode != "min_unc":
+            raise ValueError(
+                f"--recovery.candidate_noise widens min_unc's candidates; it has no effect with "
+                f"--recovery.mode={self.mode}: drop it or use --recovery.mode=min_unc."
+            )
         if self.candidate_noise is not None and not 0.0 <= self.candidate_noise <= 1.0:
             raise ValueError(
                 f"--recovery.candidate_noise is a standard deviation in action units, in [0, 1]; got "

@@ -115,7 +115,10 @@ class ShardWriter:
         if spec_path.exists():
             stored = json.loads(spec_path.read_text())
             if stored != self.spec:
-                diff = {k: (stored.get(k), v) for k, v in self.spec.items() if stored.get(k) != v}
+                keys = sorted(stored.keys() | self.spec.keys())
+                diff = {
+                    k: (stored.get(k), self.spec.get(k)) for k in keys if stored.get(k) != self.spec.get(k)
+                }
                 raise ValueError(
                     f"{self.root} holds a distillation collection with other settings (stored, asked): "
                     f"{diff}. "

@@ -44,7 +44,7 @@ def measure_action_ranking(
     num_states: int,
     every: int = 15,
     action_noise: float = 0.0,
-    seed: int = 0,
+    noise_seed: int = 0,
 ) -> dict[str, float]:
     """Compare the head's ranking of each step's S candidate actions with measured next-step uncertainty.
 
@@ -56,7 +56,7 @@ def measure_action_ranking(
         num_states: states to measure.
         every: measure every this many steps along each episode (starting at step `every`).
         action_noise: the candidates are the S samples widened by this noise, as min_unc ranks them.
-        seed: seeds that noise.
+        noise_seed: seeds that noise.
 
     Returns:
         argmin_match_rate (head's argmin == measured argmin), its chance level 1/S, the measurement's own
@@ -67,7 +67,7 @@ def measure_action_ranking(
     matches, self_matches, percentiles, rhos = [], [], [], []
     chosen_u, candidate_u, best_u = [], [], []
     num_samples = policy.config.num_samples
-    generator = torch.Generator().manual_seed(seed)
+    generator = torch.Generator().manual_seed(noise_seed)
     progress = tqdm(total=num_states, desc="Foresight ranking (states)")
     for seed in seeds:
         if len(matches) >= num_states:

@@ -100,7 +100,7 @@ def run(cfg: ForesightPipelineConfig) -> dict:
         "seed": cfg.seed,
         "num_samples": policy.config.num_samples,
     }
-    if cfg.foresight.action_noise:  # absent when 0, so collections made before the option still resume
+    if cfg.foresight.action_noise:  # absent (None in a mismatch message) when 0: older collections resume
         spec["action_noise"] = cfg.foresight.action_noise
     shards = collect_distillation_data(
         vector_env,

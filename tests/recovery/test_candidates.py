@@ -6,6 +6,7 @@ import pytest
 import torch
 
 from lerobot_ivmc.recovery.candidates import widen_candidates
+from lerobot_ivmc.recovery.config import RecoveryConfig
 
 
 def test_noise_moves_the_end_effector_part_only_and_stays_in_range() -> None:
@@ -29,3 +30,11 @@ def test_same_seed_same_candidates_and_zero_noise_is_the_samples() -> None:
     assert widen_candidates(samples, 0.0) is samples
     with pytest.raises(ValueError, match="noise"):
         widen_candidates(samples, -0.1)
+
+
+def test_candidate_noise_is_refused_where_it_would_do_nothing_or_leave_the_action_range() -> None:
+    with pytest.raises(ValueError, match="use --recovery.mode=min_unc"):
+        RecoveryConfig(mode="rand", candidate_noise=0.3)
+    with pytest.raises(ValueError, match=r"in \[0, 1\]"):
+        RecoveryConfig(mode="min_unc", candidate_noise=1.5)
+    assert RecoveryConfig(mode="min_unc", candidate_noise=0.0).candidate_noise == 0.0

@@ -168,9 +168,20 @@ def test_a_head_distilled_on_widened_actions_makes_min_unc_widen_its_candidates(
     # A resume with another noise would mix two kinds of records: refused, the shards left as they were.
     shutil.rmtree(checkpoint)
     before = sorted(p.name for p in (out / "distillation").iterdir())
-    with pytest.raises(ValueError, match="other settings"):
-        run_main("lerobot-ivmc-foresight", *flags, "--foresight.action_noise=0.1", f"--output_dir={out}")
+    for other in ("0.1", "0.0"):
+        with pytest.raises(ValueError, match="other settings.*'action_noise'"):
+            run_main(
+                "lerobot-ivmc-foresight", *flags, f"--foresight.action_noise={other}", f"--output_dir={out}"
+            )
     assert sorted(p.name for p in (out / "distillation").iterdir()) == before
+    # A head saved before the option existed (no `foresight_action_noise` in its config) ranks plain samples.
+    older = tmp_path / "older"
+    shutil.copytree(tiny_recovery_checkpoint, older)
+    config = json.loads((older / "config.json").read_text())
+    del config["foresight_action_noise"]
+    (older / "config.json").write_text(json.dumps(config))
+    info = evaluate(older, tmp_path / "older_eval", "--recovery.mode=min_unc")
+    assert info["recovery"]["candidate_noise"] == 0.0
 
 
 def test_bad_requests_say_what_to_do(

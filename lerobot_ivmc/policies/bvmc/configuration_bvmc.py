@@ -73,5 +73,8 @@ class BVMCConfig(VMCConfig):
             raise ValueError(f"uncertainty_lambda must lie in [0, 1], got {self.uncertainty_lambda}.")
         if self.foresight_hidden_dim <= 0:
             raise ValueError(f"foresight_hidden_dim must be positive, got {self.foresight_hidden_dim}.")
-        if self.foresight_action_noise < 0:
-            raise ValueError(f"foresight_action_noise must be >= 0, got {self.foresight_action_noise}.")
+        if not 0.0 <= self.foresight_action_noise <= 1.0:
+            raise ValueError(
+                f"foresight_action_noise is a standard deviation in action units, in [0, 1]; got "
+                f"{self.foresight_action_noise}."
+            )
