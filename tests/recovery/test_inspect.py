@@ -9,9 +9,13 @@ from unittest import mock
 
 import numpy as np
 import pytest
+from policy_helpers import make_config
 from recovery_helpers import ENV_FLAGS, EPISODE_LENGTH
 
 from lerobot_ivmc.envs import make_task_env
+from lerobot_ivmc.policies import BVMCConfig, VMCConfig
+from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
+from lerobot_ivmc.policies.vmc.modeling_vmc import VMCPolicy
 
 
 def inspect(checkpoint: Path, out: Path, *flags: str) -> dict:
@@ -44,3 +48,25 @@ def test_records_the_scene_of_the_seed_step_by_step_and_never_overwrites(tiny_bv
     with pytest.raises(FileExistsError, match="another --output_dir"):
         inspect(tiny_bvmc, tmp_path, "--env.split=test", "--episode_seed=3")
     assert saved.read_text() == before
+
+
+@pytest.mark.parametrize("kind", ["vmc", "bvmc_goal_head"])
+def test_reads_vmc_and_the_goal_head(kind: str, tiny_bvmc: Path, tmp_path: Path):
+    # A fresh network of the other kind with the tiny checkpoint's processors (same features and stats).
+    checkpoint = tmp_path / kind
+    if kind == "vmc":
+        policy = VMCPolicy(make_config(VMCConfig))
+    else:
+        policy = BVMCPolicy(make_config(BVMCConfig, num_samples=8, training_mode="sequence", goal_head=True))
+    policy.save_pretrained(checkpoint)
+    for path in tiny_bvmc.glob("policy_*processor*"):
+        (checkpoint / path.name).write_bytes(path.read_bytes())
+    result = inspect(checkpoint, tmp_path / "out", "--episode_seed=1", "--print_every=5")
+    record = result["per_step"]
+    assert result["steps"] == EPISODE_LENGTH
+    if kind == "vmc":
+        assert record["uncertainty"] == [None] * EPISODE_LENGTH and "believed_goal" not in record
+    else:
+        assert np.asarray(record["believed_goal"]).shape == (EPISODE_LENGTH, 3)
+        assert all(u >= 0 for u in record["uncertainty"])
+    assert (tmp_path / "out" / "inspect_seed1.png").stat().st_size > 0
