@@ -34,6 +34,12 @@ def make_task_env(task: str, **kwargs) -> IvmcFetchEnv:
     return TASK_ENVS[check_task(task)](**kwargs)
 
 
+def make_task_env_from_config(env_cfg) -> IvmcFetchEnv:
+    """The bare env an `IvmcEnv` config describes (its gym kwargs; the caller's loop keeps the time limit)."""
+    kwargs = {k: v for k, v in env_cfg.gym_kwargs.items() if k != "max_episode_steps"}
+    return make_task_env(env_cfg.task, **kwargs)
+
+
 for _task, _env in TASK_ENVS.items():
     if gym_id(_task) not in gym.registry:
         gym.register(

@@ -11,7 +11,6 @@ must end up. Writes `inspect_seed<seed>.json` and a plot of true against believe
 """
 
 import json
-import logging
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,7 +19,7 @@ import torch
 from lerobot.configs import parser
 from lerobot.configs.eval import EvalPipelineConfig
 
-from lerobot_ivmc.envs import make_task_env
+from lerobot_ivmc.envs import make_task_env_from_config
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
 from lerobot_ivmc.evaluation.compatibility import check_policy_matches_env
 from lerobot_ivmc.evaluation.eval_subtasks import env_state_stats
@@ -29,7 +28,6 @@ from lerobot_ivmc.policies.vmc.modeling_vmc import deterministic_action
 from lerobot_ivmc.recovery.foresight_ranking import batch_observations
 from lerobot_ivmc.scripts.errors import cli_main
 
-logger = logging.getLogger(__name__)
 AXES = "xyz"
 
 
@@ -80,9 +78,7 @@ def inspect_episode(cfg: InspectConfig) -> dict:
     loaded = load_policy(cfg)
     policy = loaded.policy
     mean, std = env_state_stats(loaded.preprocessor)
-    env = make_task_env(
-        cfg.env.task, **{k: v for k, v in cfg.env.gym_kwargs.items() if k != "max_episode_steps"}
-    )
+    env = make_task_env_from_config(cfg.env)
     torch.manual_seed(cfg.seed or 0)  # the Monte Carlo masks
     observation, _ = env.reset(seed=cfg.episode_seed)
     policy.reset()
@@ -96,14 +92,14 @@ def inspect_episode(cfg: InspectConfig) -> dict:
         batch = loaded.to_policy_batch(batch_observations([observation]))
         if bayesian:
             prediction = policy.sample(batch)
-            embedding, action = prediction.embedding, prediction.mean_action[0]
+            embedding = prediction.embedding
             record["uncertainty"].append(float(prediction.uncertainty[0]))
         else:
             embedding = policy.step_embedding(batch)
-            delta_ee, logits, *_ = policy.net.decode(embedding, stochastic=False)
-            action = deterministic_action(delta_ee, logits)[0]
             record["uncertainty"].append(None)
+        # The deterministic pass: the positions it believes, and VMC's action (its select_action's).
         outputs = policy.net.decode(embedding, stochastic=False, with_goal=with_goal)
+        action = prediction.mean_action[0] if bayesian else deterministic_action(outputs[0], outputs[1])[0]
         to_world = lambda normalised, part: (  # noqa: E731
             normalised[0].float().cpu() * std[part] + mean[part]
         ).tolist()

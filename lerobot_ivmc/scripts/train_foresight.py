@@ -22,7 +22,7 @@ from lerobot.configs.eval import EvalPipelineConfig
 from lerobot.envs.factory import make_env
 from lerobot.utils.random_utils import set_seed
 
-from lerobot_ivmc.envs import make_task_env
+from lerobot_ivmc.envs import make_task_env_from_config
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
 from lerobot_ivmc.evaluation.compatibility import check_policy_matches_env
 from lerobot_ivmc.evaluation.loading import load_policy
@@ -130,9 +130,7 @@ def run(cfg: ForesightPipelineConfig) -> dict:
         "heldout": foresight_quality(head, heldout),
     }
     if cfg.foresight.ranking_states > 0:
-        env = make_task_env(
-            cfg.env.task, **{k: v for k, v in cfg.env.gym_kwargs.items() if k != "max_episode_steps"}
-        )
+        env = make_task_env_from_config(cfg.env)
         first_unused = cfg.seed + len(shards) * cfg.eval.batch_size
         seeds = list(range(first_unused, first_unused + cfg.foresight.ranking_states))
         report["action_ranking"] = measure_action_ranking(
