@@ -41,8 +41,12 @@ class TrainStageConfig:
             natively (AVX512-BF16 or AMX); elsewhere bf16 is emulated, slower than fp32, and the study
             trains in fp32 (the stage's command line in its log shows which).
         policy: policy fields passed as `--policy.<name>=`.
+        extra_seeds: further training seeds, for the spread of training: vmc and bvmc of every #fc are
+            trained again from each and evaluated without recovery on the same test scenes. The Table I
+            rows (and the foresight head, threshold and recovery rows) stay those of `seed`.
 
-    Every run trains from the same seed; the final checkpoint is the one evaluated.
+    Every run trains from `seed` (and again from each of `extra_seeds`); the final checkpoint is the one
+    evaluated.
     """
 
     num_fc_layers: list[int] = field(default_factory=lambda: [1, 2])
@@ -52,6 +56,12 @@ class TrainStageConfig:
     seed: int = 1000
     bf16: bool = True
     policy: TrainPolicyConfig = field(default_factory=TrainPolicyConfig)
+    extra_seeds: list[int] = field(default_factory=list)
+
+    @property
+    def seeds(self) -> list[int]:
+        """Every training seed: the main one first."""
+        return [self.seed, *self.extra_seeds]
 
 
 @dataclass
@@ -130,6 +140,12 @@ class PipelineConfig:
         if bad_modes or not self.recovery_modes:
             raise ValueError(
                 f"--recovery_modes must be taken from {RECOVERY_MODES}, got {self.recovery_modes}."
+            )
+        seeds = self.train.seeds
+        if len(set(seeds)) != len(seeds):
+            raise ValueError(
+                f"--train.extra_seeds must differ from each other and from --train.seed={self.train.seed}, "
+                f"got {self.train.extra_seeds}."
             )
         for name, value in (
             ("train.steps", self.train.steps),

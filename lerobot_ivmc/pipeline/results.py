@@ -6,13 +6,20 @@ from __future__ import annotations
 import json
 import math
 import shutil
+import statistics
 from pathlib import Path
 
 from lerobot_ivmc.evaluation.compare import EVAL_INFO_FILE, paired_outcomes
 from lerobot_ivmc.pipeline.config import PipelineConfig
 from lerobot_ivmc.pipeline.paper_table import PAPER_TABLE
 from lerobot_ivmc.pipeline.runner import StageResult, write_json_atomic
-from lerobot_ivmc.pipeline.stages import Stage, eval_stage_name, fig3_stage_name, stage_output
+from lerobot_ivmc.pipeline.stages import (
+    Stage,
+    eval_stage_name,
+    fig3_stage_name,
+    seed_eval_stage_name,
+    stage_output,
+)
 
 RESULTS_DIR = "results"
 METHOD_LABELS = {
@@ -41,10 +48,8 @@ def table_rows(cfg: PipelineConfig, stages: list[Stage], fcs: list[int]) -> list
                 "num_fc_layers": fc,
                 "method": method,
                 "label": METHOD_LABELS[method],
-                "subtasks": {
-                    sub: {"rate": r["pc"], "stderr": r["stderr"], "n": r["n"]}
-                    for sub, r in info["aggregated_subtasks"].items()
-                },
+                "train_seed": cfg.train.seed,
+                "subtasks": subtask_rates(info),
                 "paper": {
                     sub: {"rate": v[0], "stderr": v[1]}
                     for sub, v in PAPER_TABLE[cfg.task][fc][method].items()
@@ -63,6 +68,81 @@ def table_rows(cfg: PipelineConfig, stages: list[Stage], fcs: list[int]) -> list
             }
             rows.append(row)
     return rows
+
+
+def subtask_rates(info: dict) -> dict:
+    """Each subtask's rate [%], standard error and n from an `eval_info.json`."""
+    return {
+        sub: {"rate": r["pc"], "stderr": r["stderr"], "n": r["n"]}
+        for sub, r in info["aggregated_subtasks"].items()
+    }
+
+
+def training_seed_rows(
+    cfg: PipelineConfig, stages: list[Stage], fcs: list[int], ended: set[str]
+) -> tuple[list[dict], list[dict]]:
+    """VMC and BVMC (no recovery) from every training seed whose evaluation has ended, for the #fc values
+    `fcs`, and per (#fc, model) the mean and sample standard deviation of each subtask's rate over them."""
+    rows, summary = [], []
+    for fc in fcs:
+        for policy_type, method in (("vmc", "vmc"), ("bvmc", "none")):
+            per_seed = []
+            for train_seed in cfg.train.seeds:
+                if train_seed == cfg.train.seed:
+                    stage = eval_row_stage(fc, method)
+                else:
+                    stage = seed_eval_stage_name(policy_type, fc, train_seed)
+                if stage not in ended:
+                    continue
+                info = load_eval_info(stage_output(stages, stage))
+                per_seed.append(
+                    {
+                        "task": cfg.task,
+                        "model": policy_type.upper(),
+                        "num_fc_layers": fc,
+                        "train_seed": train_seed,
+                        "subtasks": subtask_rates(info),
+                    }
+                )
+            rows += per_seed
+            if len(per_seed) < 2:
+                continue
+            spread = {}
+            for sub in per_seed[0]["subtasks"]:
+                rates = [r["subtasks"][sub]["rate"] for r in per_seed]
+                spread[sub] = {"mean": statistics.mean(rates), "std": statistics.stdev(rates), "rates": rates}
+            summary.append(
+                {
+                    "model": policy_type.upper(),
+                    "num_fc_layers": fc,
+                    "train_seeds": [r["train_seed"] for r in per_seed],
+                    "subtasks": spread,
+                }
+            )
+    return rows, summary
+
+
+def training_seed_table(rows: list[dict], summary: list[dict]) -> str:
+    """Markdown: one line per (model, #fc, training seed), then the mean +- standard deviation over seeds."""
+    subtasks = list(rows[0]["subtasks"])
+    n = rows[0]["subtasks"][subtasks[0]]["n"]
+    lines = [
+        f"| model (no recovery), {n} test scenes | #fc | training seed | "
+        + " | ".join(f"{s} [%]" for s in subtasks)
+        + " |",
+        "|---|---|---|" + "---|" * len(subtasks),
+    ]
+    for row in rows:
+        cells = [f"{row['subtasks'][s]['rate']:.1f} +- {row['subtasks'][s]['stderr']:.1f}" for s in subtasks]
+        lines.append(
+            f"| {row['model']} | {row['num_fc_layers']} | {row['train_seed']} | " + " | ".join(cells) + " |"
+        )
+    for entry in summary:
+        cells = [f"{entry['subtasks'][s]['mean']:.1f} +- {entry['subtasks'][s]['std']:.1f}" for s in subtasks]
+        seeds = ", ".join(map(str, entry["train_seeds"]))
+        label = f"{entry['model']}, mean +- sd over {len(entry['train_seeds'])} seeds"
+        lines.append(f"| {label} | {entry['num_fc_layers']} | {seeds} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def load_eval_info(folder: Path) -> dict:
@@ -101,9 +181,23 @@ def markdown_table(rows: list[dict]) -> str:
 
 
 def finished_fcs(cfg: PipelineConfig, timings: list[StageResult]) -> list[int]:
-    """The #fc values whose stages have all finished (a study's last stage of an #fc is its detection)."""
+    """The #fc values whose Table I stages have all finished (the last of them is the detection)."""
     ended = {t.name for t in timings}
     return [fc for fc in cfg.train.num_fc_layers if f"detect_fc{fc}" in ended]
+
+
+def adds_results(cfg: PipelineConfig, timings: list[StageResult]) -> bool:
+    """Whether the stage that ended last completes results: an #fc's detection, or an evaluation of an
+    extra training seed once its #fc's Table I rows exist."""
+    last = timings[-1].name
+    if last.startswith("detect_fc"):
+        return True
+    return any(
+        last == seed_eval_stage_name(policy_type, fc, train_seed)
+        for fc in finished_fcs(cfg, timings)
+        for train_seed in cfg.train.extra_seeds
+        for policy_type in ("vmc", "bvmc")
+    )
 
 
 def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageResult]) -> Path:
@@ -152,12 +246,23 @@ def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageR
             },
             "videos": [f"fc{fc}_min_unc_{v.name}" for v in videos[:MAX_VIDEOS]],
         }
+    ended = {t.name for t in timings}
+    seed_rows, seed_summary = (
+        training_seed_rows(cfg, stages, fcs, ended) if cfg.train.extra_seeds else ([], [])
+    )
+    seeds_done = all(
+        seed_eval_stage_name(policy_type, fc, train_seed) in ended
+        for fc in cfg.train.num_fc_layers
+        for train_seed in cfg.train.extra_seeds
+        for policy_type in ("vmc", "bvmc")
+    )
     payload = {
         "task": cfg.task,
         "preset": cfg.preset,
-        "complete": fcs == cfg.train.num_fc_layers,
+        "complete": fcs == cfg.train.num_fc_layers and seeds_done,
         "rows": rows,
         "per_fc": per_fc,
+        **({"training_seeds": {"rows": seed_rows, "summary": seed_summary}} if cfg.train.extra_seeds else {}),
         "stage_wall_s": {t.name: round(t.wall_s, 1) for t in timings},
         "total_wall_s": round(sum(t.wall_s for t in timings), 1),
     }
@@ -173,6 +278,11 @@ def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageR
             f"\n#fc = {fc}: Fig. 3 over {entry['fig3']['episodes']} test episodes, Spearman rho {rho_text} "
             f"({entry['fig3']['plot']}); failure prediction AUROC {auroc_text} "
             f"({det['failures']} failures in {det['episodes']}).\n"
+        )
+    if seed_rows:
+        lines.append(
+            "\n## Training seeds: VMC and BVMC trained from each seed, no recovery, the same test scenes\n\n"
+            + training_seed_table(seed_rows, seed_summary)
         )
     (out / "table.md").write_text("".join(lines))
     return out

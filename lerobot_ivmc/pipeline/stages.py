@@ -2,7 +2,8 @@
 done. `build_stages` turns a `PipelineConfig` into the ordered list the runner executes.
 
 collect, then for each #fc: train vmc and bvmc -> foresight -> threshold -> evals of the Table I rows on the
-same test scenes -> Fig. 3 episodes -> detection metrics. (The results table is written by the runner.)
+same test scenes -> Fig. 3 episodes -> detection metrics -> for each extra training seed, vmc and bvmc
+trained again and evaluated on the same test scenes. (The results table is written by the runner.)
 """
 
 from __future__ import annotations
@@ -207,16 +208,46 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
                 depends=[fig3, f"threshold_fc{fc}"],
             )
         )
+        for train_seed in t.extra_seeds:
+            stages += train_stages(cfg, fc, data, c.dataset.repo_id or repo_id, train_seed)
+            for policy_type in ("vmc", "bvmc"):
+                name = seed_eval_stage_name(policy_type, fc, train_seed)
+                stages.append(
+                    eval_stage(
+                        name,
+                        root / "train" / f"{policy_type}_fc{fc}{seed_suffix(train_seed)}" / CHECKPOINT,
+                        root / "eval" / name.removeprefix("eval_"),
+                        env_flags,
+                        cfg.eval.n_episodes,
+                        cfg.eval.batch_size,
+                        seed,
+                        None,
+                        f"train_{policy_type}_fc{fc}{seed_suffix(train_seed)}",
+                    )
+                )
     return stages
 
 
-def train_stages(cfg: PipelineConfig, fc: int, data: Path, repo_id: str) -> list[Stage]:
-    """`lerobot-ivmc-train` of vmc and bvmc with `fc` fully connected layers on the collected demos."""
+def seed_suffix(train_seed: int | None) -> str:
+    """The name suffix of an extra training seed's stages and folders (none for the main seed)."""
+    return "" if train_seed is None else f"_seed{train_seed}"
+
+
+def seed_eval_stage_name(policy_type: str, fc: int, train_seed: int) -> str:
+    """`eval_vmc_fc1_seed2000`: a policy of an extra training seed on the test scenes, no recovery."""
+    return f"eval_{policy_type}_fc{fc}{seed_suffix(train_seed)}"
+
+
+def train_stages(
+    cfg: PipelineConfig, fc: int, data: Path, repo_id: str, train_seed: int | None = None
+) -> list[Stage]:
+    """`lerobot-ivmc-train` of vmc and bvmc with `fc` fully connected layers on the collected demos, from
+    the main training seed or from `train_seed`, one of the extra ones."""
     t = cfg.train
     stages = []
     for policy_type in ("vmc", "bvmc"):
-        name = f"train_{policy_type}_fc{fc}"
-        out = cfg.root.resolve() / "train" / f"{policy_type}_fc{fc}"
+        name = f"train_{policy_type}_fc{fc}{seed_suffix(train_seed)}"
+        out = cfg.root.resolve() / "train" / f"{policy_type}_fc{fc}{seed_suffix(train_seed)}"
         stages.append(
             Stage(
                 name,
@@ -228,7 +259,14 @@ def train_stages(cfg: PipelineConfig, fc: int, data: Path, repo_id: str) -> list
                     *flags("policy.", asdict(t.policy)),
                     f"--dataset.repo_id={repo_id}",
                     f"--dataset.root={data}",
-                    *flags("", {"batch_size": t.batch_size, "steps": t.steps, "seed": t.seed}),
+                    *flags(
+                        "",
+                        {
+                            "batch_size": t.batch_size,
+                            "steps": t.steps,
+                            "seed": t.seed if train_seed is None else train_seed,
+                        },
+                    ),
                     f"--save_freq={min(t.save_freq, t.steps)}",
                     "--num_workers=0",
                     "--eval_freq=0",

@@ -6,7 +6,8 @@ Presets are `configs/pipeline/<preset>.yaml` (smoke, lite, paper); any field can
 draccus flags of `PipelineConfig` (a field that does not exist is refused). Rerun the same command to
 resume: finished stages are skipped, a killed stage is continued where it can be (demo collection, a training
 from its last checkpoint) or redone, and a changed stage reruns with everything after it. Results:
-`<output_dir>/results/` (`<task>.json`, `table.md`, plots, videos), written as each #fc finishes.
+`<output_dir>/results/` (`<task>.json`, `table.md`, plots, videos), written as each #fc finishes (and as
+each extra training seed's evaluations do, `--train.extra_seeds=[2000]`).
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import time
 import draccus
 
 from lerobot_ivmc.pipeline.config import PRESETS_DIR, PipelineConfig
-from lerobot_ivmc.pipeline.results import RESULTS_DIR, write_results
+from lerobot_ivmc.pipeline.results import RESULTS_DIR, adds_results, write_results
 from lerobot_ivmc.pipeline.runner import PipelineError, StageResult, claim_root, run_stages, study_lock
 from lerobot_ivmc.pipeline.stages import build_stages
 from lerobot_ivmc.scripts.errors import run_cli
@@ -58,13 +59,13 @@ def run_pipeline(cfg: PipelineConfig, log=print) -> dict:
     start = time.perf_counter()
     out = root / RESULTS_DIR
 
-    def write_when_an_fc_ends(timings: list[StageResult]) -> None:
-        if timings[-1].name.startswith("detect_fc"):
+    def write_when_results_grow(timings: list[StageResult]) -> None:
+        if adds_results(cfg, timings):
             write_results(cfg, stages, timings)
             log(f"Results so far in {out}")
 
     with study_lock(root):
-        timings = run_stages(root, stages, log, on_stage_end=write_when_an_fc_ends)
+        timings = run_stages(root, stages, log, on_stage_end=write_when_results_grow)
     log(f"\nStage wall times ({cfg.task}, preset {cfg.preset}; skipped stages show their earlier time):")
     for t in timings:
         log(f"  {t.name:<28} {t.status:<8} {t.wall_s:8.0f} s")

@@ -61,6 +61,31 @@ def test_presets_load_and_any_field_can_be_overridden(tmp_path: Path) -> None:
     assert "--foresight.action_noise=0.3" in {s.name: s for s in build_stages(widened)}["foresight_fc1"].argv
 
 
+def test_extra_training_seeds_add_stages_and_leave_the_study_s_own_untouched(tmp_path: Path) -> None:
+    base = ["--task=pick_place", "--preset=lite", f"--output_dir={tmp_path}", "--train.num_fc_layers=[1]"]
+    plain = build_stages(parse_config(base))
+    seeded = build_stages(parse_config([*base, "--train.extra_seeds=[2000]"]))
+    # The main seed's stages are the same commands, so adding a seed to a study reruns none of them.
+    assert [(s.name, s.argv) for s in seeded[: len(plain)]] == [(s.name, s.argv) for s in plain]
+    extra = {s.name: s for s in seeded[len(plain) :]}
+    assert list(extra) == [
+        "train_vmc_fc1_seed2000",
+        "train_bvmc_fc1_seed2000",
+        "eval_vmc_fc1_seed2000",
+        "eval_bvmc_fc1_seed2000",
+    ]
+    train = extra["train_bvmc_fc1_seed2000"]
+    assert "--seed=2000" in train.argv and "--seed=1000" not in train.argv
+    assert train.output == tmp_path.resolve() / "train" / "bvmc_fc1_seed2000"
+    evaluation = extra["eval_bvmc_fc1_seed2000"]
+    # Evaluated like the Table I rows (same test scenes), from its own checkpoint, without recovery.
+    same_scenes = {a for a in evaluation.argv if a.startswith(("--seed=", "--eval.", "--env."))}
+    assert same_scenes == {a for a in {s.name: s for s in plain}["eval_vmc_fc1"].argv if a in same_scenes}
+    assert not any(a.startswith("--recovery") for a in evaluation.argv)
+    assert evaluation.depends == ["train_bvmc_fc1_seed2000"]
+    assert f"--policy.path={train.output}/checkpoints/last/pretrained_model" in evaluation.argv
+
+
 def test_bad_input_is_refused_with_what_to_do(capsys: pytest.CaptureFixture) -> None:
     with pytest.raises(ValueError, match=r"Unknown preset 'huge'.*\['lite', 'paper', 'smoke'\]"):
         parse_config(["--task=push", "--preset=huge"])
@@ -73,6 +98,9 @@ def test_bad_input_is_refused_with_what_to_do(capsys: pytest.CaptureFixture) -> 
     assert bad_task.returncode == 2 and "Unknown task 'stack'" in bad_task.stderr
     bad_fc = pipeline("--task=push", "--preset=smoke", "--train.num_fc_layers=[3]")
     assert bad_fc.returncode == 2 and "num_fc_layers" in bad_fc.stderr
+    for seeds in ("[1000]", "[5,5]"):  # the main seed again, or a seed twice: the same policies twice
+        same_seed = pipeline("--task=push", "--preset=smoke", f"--train.extra_seeds={seeds}")
+        assert same_seed.returncode == 2 and "--train.extra_seeds must differ" in same_seed.stderr
 
 
 def run_until_stage_starts(stage: str, *args: str) -> None:
@@ -135,3 +163,26 @@ def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Pa
     other = pipeline("--task=pick_place", "--preset=smoke", f"--output_dir={out}")
     assert other.returncode == 2 and "holds the study" in other.stderr
     assert sorted((p, p.stat().st_mtime_ns) for p in out.rglob("*")) == before, "the folder is left untouched"
+
+    # A second training seed added to the finished study trains and evaluates only its own policies.
+    seeded = pipeline("--task=push", "--preset=smoke", f"--output_dir={out}", "--train.extra_seeds=[7]")
+    assert seeded.returncode == 0, seeded.stdout[-3000:] + seeded.stderr[-3000:]
+    assert seeded.stdout.count("done earlier") == len(results["stage_wall_s"]), seeded.stdout
+    assert seeded.stdout.count(": running") == 4, seeded.stdout
+    with_seed = json.loads((out / "results" / "push.json").read_text())
+    assert with_seed["complete"] is True and with_seed["rows"] == results["rows"]
+    spread = with_seed["training_seeds"]
+    assert [(r["model"], r["train_seed"]) for r in spread["rows"]] == [
+        ("VMC", 1000),
+        ("VMC", 7),
+        ("BVMC", 1000),
+        ("BVMC", 7),
+    ]
+    # The main seed's rows are the Table I rows themselves.
+    assert spread["rows"][0]["subtasks"] == results["rows"][0]["subtasks"]
+    for entry in spread["summary"]:
+        rates = [r["subtasks"]["push"]["rate"] for r in spread["rows"] if r["model"] == entry["model"]]
+        assert entry["train_seeds"] == [1000, 7] and entry["subtasks"]["push"]["rates"] == rates
+        assert entry["subtasks"]["push"]["mean"] == pytest.approx(sum(rates) / 2)
+        assert entry["subtasks"]["push"]["std"] == pytest.approx(abs(rates[0] - rates[1]) / 2**0.5)
+    assert "mean +- sd over 2 seeds" in (out / "results" / "table.md").read_text()
