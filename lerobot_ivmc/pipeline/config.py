@@ -142,6 +142,13 @@ class PipelineConfig:
                 f"--recovery_modes must be taken from {RECOVERY_MODES}, got {self.recovery_modes}."
             )
         seeds = self.train.seeds
+        if any(not 0 <= seed < 2**32 for seed in seeds):
+            raise ValueError(f"Training seeds must be in [0, 2**32), got --train.seed / extra_seeds {seeds}.")
+        if self.train.extra_seeds and "none" not in self.recovery_modes:
+            raise ValueError(
+                "--train.extra_seeds compares each seed's BVMC without recovery with the main seed's, which "
+                "needs 'none' in --recovery_modes."
+            )
         if len(set(seeds)) != len(seeds):
             raise ValueError(
                 f"--train.extra_seeds must differ from each other and from --train.seed={self.train.seed}, "

@@ -280,9 +280,11 @@ def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageR
             f"({det['failures']} failures in {det['episodes']}).\n"
         )
     if seed_rows:
+        waiting = sorted({s for s in cfg.train.extra_seeds if s not in {r["train_seed"] for r in seed_rows}})
         lines.append(
             "\n## Training seeds: VMC and BVMC trained from each seed, no recovery, the same test scenes\n\n"
             + training_seed_table(seed_rows, seed_summary)
+            + (f"\n(training seeds {', '.join(map(str, waiting))} not evaluated yet)\n" if waiting else "")
         )
     (out / "table.md").write_text("".join(lines))
     return out

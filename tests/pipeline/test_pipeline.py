@@ -62,10 +62,16 @@ def test_presets_load_and_any_field_can_be_overridden(tmp_path: Path) -> None:
 
 
 def test_extra_training_seeds_add_stages_and_leave_the_study_s_own_untouched(tmp_path: Path) -> None:
-    base = ["--task=pick_place", "--preset=lite", f"--output_dir={tmp_path}", "--train.num_fc_layers=[1]"]
+    base = ["--task=pick_place", "--preset=lite", f"--output_dir={tmp_path}"]
+    # The main seed's stages are the same commands, so adding a seed to a study reruns none of them.
+    two_fc = {s.name: s.argv for s in build_stages(parse_config([*base, "--train.num_fc_layers=[1,2]"]))}
+    two_fc_seeded = build_stages(
+        parse_config([*base, "--train.num_fc_layers=[1,2]", "--train.extra_seeds=[9]"])
+    )
+    assert {s.name: s.argv for s in two_fc_seeded if "_seed9" not in s.name} == two_fc
+    base.append("--train.num_fc_layers=[1]")
     plain = build_stages(parse_config(base))
     seeded = build_stages(parse_config([*base, "--train.extra_seeds=[2000]"]))
-    # The main seed's stages are the same commands, so adding a seed to a study reruns none of them.
     assert [(s.name, s.argv) for s in seeded[: len(plain)]] == [(s.name, s.argv) for s in plain]
     extra = {s.name: s for s in seeded[len(plain) :]}
     assert list(extra) == [
@@ -78,9 +84,13 @@ def test_extra_training_seeds_add_stages_and_leave_the_study_s_own_untouched(tmp
     assert "--seed=2000" in train.argv and "--seed=1000" not in train.argv
     assert train.output == tmp_path.resolve() / "train" / "bvmc_fc1_seed2000"
     evaluation = extra["eval_bvmc_fc1_seed2000"]
+
     # Evaluated like the Table I rows (same test scenes), from its own checkpoint, without recovery.
-    same_scenes = {a for a in evaluation.argv if a.startswith(("--seed=", "--eval.", "--env."))}
-    assert same_scenes == {a for a in {s.name: s for s in plain}["eval_vmc_fc1"].argv if a in same_scenes}
+    def scenes(argv: list[str]) -> list[str]:
+        return [a for a in argv if a.startswith(("--seed=", "--eval.", "--env."))]
+
+    assert scenes(evaluation.argv) == scenes({s.name: s for s in plain}["eval_vmc_fc1"].argv)
+    assert "--env.split=test" in scenes(evaluation.argv)
     assert not any(a.startswith("--recovery") for a in evaluation.argv)
     assert evaluation.depends == ["train_bvmc_fc1_seed2000"]
     assert f"--policy.path={train.output}/checkpoints/last/pretrained_model" in evaluation.argv
@@ -101,6 +111,12 @@ def test_bad_input_is_refused_with_what_to_do(capsys: pytest.CaptureFixture) -> 
     for seeds in ("[1000]", "[5,5]"):  # the main seed again, or a seed twice: the same policies twice
         same_seed = pipeline("--task=push", "--preset=smoke", f"--train.extra_seeds={seeds}")
         assert same_seed.returncode == 2 and "--train.extra_seeds must differ" in same_seed.stderr
+    negative = pipeline("--task=push", "--preset=smoke", "--train.extra_seeds=[-1]")
+    assert negative.returncode == 2 and "Training seeds must be in" in negative.stderr
+    no_plain_bvmc = pipeline(
+        "--task=push", "--preset=smoke", "--train.extra_seeds=[7]", "--recovery_modes=[min_unc]"
+    )
+    assert no_plain_bvmc.returncode == 2 and "needs 'none' in --recovery_modes" in no_plain_bvmc.stderr
 
 
 def run_until_stage_starts(stage: str, *args: str) -> None:
@@ -178,10 +194,15 @@ def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Pa
         ("BVMC", 1000),
         ("BVMC", 7),
     ]
-    # The main seed's rows are the Table I rows themselves.
+    # The main seed's rows are the Table I rows themselves (VMC, and BVMC without recovery).
     assert spread["rows"][0]["subtasks"] == results["rows"][0]["subtasks"]
+    assert spread["rows"][2]["subtasks"] == results["rows"][1]["subtasks"]
     for entry in spread["summary"]:
-        rates = [r["subtasks"]["push"]["rate"] for r in spread["rows"] if r["model"] == entry["model"]]
+        rates = [
+            r["subtasks"]["push"]["rate"]
+            for r in spread["rows"]
+            if (r["model"], r["num_fc_layers"]) == (entry["model"], entry["num_fc_layers"])
+        ]
         assert entry["train_seeds"] == [1000, 7] and entry["subtasks"]["push"]["rates"] == rates
         assert entry["subtasks"]["push"]["mean"] == pytest.approx(sum(rates) / 2)
         assert entry["subtasks"]["push"]["std"] == pytest.approx(abs(rates[0] - rates[1]) / 2**0.5)
