@@ -10,7 +10,7 @@ import statistics
 from pathlib import Path
 
 from lerobot_ivmc.evaluation.compare import EVAL_INFO_FILE, paired_outcomes
-from lerobot_ivmc.pipeline.config import PipelineConfig
+from lerobot_ivmc.pipeline.config import POLICY_TYPES, PipelineConfig
 from lerobot_ivmc.pipeline.paper_table import PAPER_TABLE
 from lerobot_ivmc.pipeline.runner import StageResult, write_json_atomic
 from lerobot_ivmc.pipeline.stages import (
@@ -85,7 +85,7 @@ def training_seed_rows(
     `fcs`, and per (#fc, model) the mean and sample standard deviation of each subtask's rate over them."""
     rows, summary = [], []
     for fc in fcs:
-        for policy_type, method in (("vmc", "vmc"), ("bvmc", "none")):
+        for policy_type, method in zip(POLICY_TYPES, ("vmc", "none"), strict=True):
             per_seed = []
             for train_seed in cfg.train.seeds:
                 if train_seed == cfg.train.seed:
@@ -186,18 +186,21 @@ def finished_fcs(cfg: PipelineConfig, timings: list[StageResult]) -> list[int]:
     return [fc for fc in cfg.train.num_fc_layers if f"detect_fc{fc}" in ended]
 
 
+def seed_eval_stages(cfg: PipelineConfig, fcs: list[int]) -> list[str]:
+    """The evaluation stages of the extra training seeds' policies for the #fc values `fcs`."""
+    return [
+        seed_eval_stage_name(policy_type, fc, train_seed)
+        for fc in fcs
+        for train_seed in cfg.train.extra_seeds
+        for policy_type in POLICY_TYPES
+    ]
+
+
 def adds_results(cfg: PipelineConfig, timings: list[StageResult]) -> bool:
     """Whether the stage that ended last completes results: an #fc's detection, or an evaluation of an
     extra training seed once its #fc's Table I rows exist."""
     last = timings[-1].name
-    if last.startswith("detect_fc"):
-        return True
-    return any(
-        last == seed_eval_stage_name(policy_type, fc, train_seed)
-        for fc in finished_fcs(cfg, timings)
-        for train_seed in cfg.train.extra_seeds
-        for policy_type in ("vmc", "bvmc")
-    )
+    return last.startswith("detect_fc") or last in seed_eval_stages(cfg, finished_fcs(cfg, timings))
 
 
 def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageResult]) -> Path:
@@ -250,12 +253,7 @@ def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageR
     seed_rows, seed_summary = (
         training_seed_rows(cfg, stages, fcs, ended) if cfg.train.extra_seeds else ([], [])
     )
-    seeds_done = all(
-        seed_eval_stage_name(policy_type, fc, train_seed) in ended
-        for fc in cfg.train.num_fc_layers
-        for train_seed in cfg.train.extra_seeds
-        for policy_type in ("vmc", "bvmc")
-    )
+    seeds_done = all(name in ended for name in seed_eval_stages(cfg, cfg.train.num_fc_layers))
     payload = {
         "task": cfg.task,
         "preset": cfg.preset,

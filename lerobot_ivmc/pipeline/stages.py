@@ -13,7 +13,7 @@ import sys
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from lerobot_ivmc.pipeline.config import PipelineConfig
+from lerobot_ivmc.pipeline.config import POLICY_TYPES, PipelineConfig
 from lerobot_ivmc.policies.vmc.modeling_vmc import cpu_has_native_bf16
 
 CHECKPOINT = Path("checkpoints") / "last" / "pretrained_model"
@@ -209,20 +209,21 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
             )
         )
         for train_seed in t.extra_seeds:
-            stages += train_stages(cfg, fc, data, c.dataset.repo_id or repo_id, train_seed)
-            for policy_type in ("vmc", "bvmc"):
+            trainings = train_stages(cfg, fc, data, c.dataset.repo_id or repo_id, train_seed)
+            stages += trainings
+            for policy_type, training in zip(POLICY_TYPES, trainings, strict=True):
                 name = seed_eval_stage_name(policy_type, fc, train_seed)
                 stages.append(
                     eval_stage(
                         name,
-                        root / "train" / f"{policy_type}_fc{fc}{seed_suffix(train_seed)}" / CHECKPOINT,
+                        training.output / CHECKPOINT,
                         root / "eval" / name.removeprefix("eval_"),
                         env_flags,
                         cfg.eval.n_episodes,
                         cfg.eval.batch_size,
                         seed,
                         None,
-                        f"train_{policy_type}_fc{fc}{seed_suffix(train_seed)}",
+                        training.name,
                     )
                 )
     return stages
@@ -245,7 +246,7 @@ def train_stages(
     the main training seed or from `train_seed`, one of the extra ones."""
     t = cfg.train
     stages = []
-    for policy_type in ("vmc", "bvmc"):
+    for policy_type in POLICY_TYPES:
         name = f"train_{policy_type}_fc{fc}{seed_suffix(train_seed)}"
         out = cfg.root.resolve() / "train" / f"{policy_type}_fc{fc}{seed_suffix(train_seed)}"
         stages.append(
