@@ -21,11 +21,9 @@ from lerobot.configs.eval import EvalPipelineConfig
 
 from lerobot_ivmc.envs import make_task_env_from_config
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
+from lerobot_ivmc.evaluation.beliefs import BeliefReader
 from lerobot_ivmc.evaluation.compatibility import check_policy_matches_env
-from lerobot_ivmc.evaluation.eval_subtasks import env_state_stats
 from lerobot_ivmc.evaluation.loading import load_policy
-from lerobot_ivmc.policies.vmc.modeling_vmc import deterministic_action
-from lerobot_ivmc.recovery.foresight_ranking import batch_observations
 from lerobot_ivmc.scripts.errors import cli_main
 
 AXES = "xyz"
@@ -75,46 +73,28 @@ def output_paths(cfg: InspectConfig) -> tuple[Path, Path]:
 def inspect_episode(cfg: InspectConfig) -> dict:
     """Run the episode and return its per-step record (lists, one entry per step) and final milestones."""
     check_inputs(cfg)
-    loaded = load_policy(cfg)
-    policy = loaded.policy
-    mean, std = env_state_stats(loaded.preprocessor)
+    reader = BeliefReader(load_policy(cfg))
     env = make_task_env_from_config(cfg.env)
     torch.manual_seed(cfg.seed or 0)  # the Monte Carlo masks
     observation, _ = env.reset(seed=cfg.episode_seed)
-    policy.reset()
-    bayesian = cfg.policy.type == "bvmc"
-    with_goal = bool(getattr(policy.config, "goal_head", False))
+    reader.reset()
     keys = ["grip", "object", "target", "believed_grip", "believed_object", "action", "grasped"]
-    record: dict[str, list] = {k: [] for k in keys + (["believed_goal"] if with_goal else [])}
+    record: dict[str, list] = {k: [] for k in keys + (["believed_goal"] if reader.with_goal else [])}
     record["uncertainty"] = []
     info: dict = {}
     for step in range(cfg.env.episode_length):
-        batch = loaded.to_policy_batch(batch_observations([observation]))
-        if bayesian:
-            prediction = policy.sample(batch)
-            embedding = prediction.embedding
-            record["uncertainty"].append(float(prediction.uncertainty[0]))
-        else:
-            embedding = policy.step_embedding(batch)
-            record["uncertainty"].append(None)
-        # The deterministic pass: the positions it believes, and VMC's action (its select_action's).
-        outputs = policy.net.decode(embedding, stochastic=False, with_goal=with_goal)
-        action = prediction.mean_action[0] if bayesian else deterministic_action(outputs[0], outputs[1])[0]
-        to_world = lambda normalised, part: (  # noqa: E731
-            normalised[0].float().cpu() * std[part] + mean[part]
-        ).tolist()
-        record["believed_grip"].append(to_world(outputs[2], slice(0, 3)))
-        record["believed_object"].append(to_world(outputs[3], slice(3, 6)))
-        if with_goal:
-            record["believed_goal"].append(to_world(outputs[4], slice(3, 6)))
+        policy_step = reader.step(observation)
+        record["uncertainty"].append(policy_step.uncertainty)
+        for name, position in policy_step.beliefs.items():
+            record[f"believed_{name}"].append(position)
         record["grip"].append(env.grip_position.tolist())
         record["object"].append(env.object_position.tolist())
         record["target"].append(env.target_position.tolist())
         record["grasped"].append(bool(env.is_grasped()))
-        record["action"].append(action.float().cpu().tolist())
+        record["action"].append(policy_step.action.tolist())
         if cfg.print_every and step % cfg.print_every == 0:
             print(format_step(step, record))
-        observation, _, terminated, _, info = env.step(action.float().cpu().numpy())
+        observation, _, terminated, _, info = env.step(policy_step.action.numpy())
         if terminated:
             break
     env.close()

@@ -65,6 +65,24 @@ class TrainStageConfig:
 
 
 @dataclass
+class PerceptionStageConfig:
+    """`lerobot-ivmc-perception` after every training, on validation scenes: did the policy learn where the
+    object is?
+
+    Args:
+        n_scenes: validation scenes (seeds `seed`, `seed + 1`, ...).
+        steps: steps measured from each episode's start.
+        max_object_error_cm: stop the study when a policy of the main training seed, acting, misjudges the
+            object's position by more than this (median, cm), before foresight and evaluations are spent on
+            it; 0 only reports. Extra training seeds' policies are only reported.
+    """
+
+    n_scenes: int = 20
+    steps: int = 30
+    max_object_error_cm: float = 5.0
+
+
+@dataclass
 class EpisodesConfig:
     """How many episodes an evaluation-like stage runs, in batches of `batch_size` parallel envs."""
 
@@ -104,6 +122,7 @@ class PipelineConfig:
         episode_length: steps before an evaluation episode is cut (the paper: 200).
         collect: `lerobot-ivmc-collect`'s config (its `env.task` is set from `task`).
         train: the training runs.
+        perception: the check after each training that the policy learned where the object is.
         foresight: distillation of the uncertainty foresight head.
         threshold: threshold picking on validation scenes.
         eval: the Table I evaluations on test scenes (VMC, and BVMC with each of `recovery_modes`).
@@ -118,6 +137,7 @@ class PipelineConfig:
     episode_length: int = 200
     collect: RecordDemosConfig = field(default_factory=RecordDemosConfig)
     train: TrainStageConfig = field(default_factory=TrainStageConfig)
+    perception: PerceptionStageConfig = field(default_factory=PerceptionStageConfig)
     foresight: ForesightStageConfig = field(default_factory=ForesightStageConfig)
     threshold: ThresholdStageConfig = field(default_factory=ThresholdStageConfig)
     eval: EpisodesConfig = field(default_factory=EpisodesConfig)
@@ -141,6 +161,11 @@ class PipelineConfig:
             raise ValueError(
                 f"--recovery_modes must be taken from {RECOVERY_MODES}, got {self.recovery_modes}."
             )
+        if self.perception.max_object_error_cm < 0:
+            raise ValueError(
+                "--perception.max_object_error_cm must be >= 0 (0 only reports), got "
+                f"{self.perception.max_object_error_cm}."
+            )
         seeds = self.train.seeds
         if any(not 0 <= seed < 2**32 for seed in seeds):
             raise ValueError(f"Training seeds must be in [0, 2**32), got --train.seed / extra_seeds {seeds}.")
@@ -159,6 +184,8 @@ class PipelineConfig:
             ("eval.n_episodes", self.eval.n_episodes),
             ("fig3.n_episodes", self.fig3.n_episodes),
             ("threshold.n_episodes", self.threshold.n_episodes),
+            ("perception.n_scenes", self.perception.n_scenes),
+            ("perception.steps", self.perception.steps),
             ("collect.dataset.num_episodes", self.collect.dataset.num_episodes),
         ):
             if value <= 0:

@@ -17,7 +17,9 @@ from lerobot_ivmc.pipeline.stages import (
     Stage,
     eval_stage_name,
     fig3_stage_name,
+    perception_stage_name,
     seed_eval_stage_name,
+    seed_suffix,
     stage_output,
 )
 
@@ -145,6 +147,53 @@ def training_seed_table(rows: list[dict], summary: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def perception_rows(cfg: PipelineConfig, stages: list[Stage], ended: set[str]) -> list[dict]:
+    """Per trained policy whose check has ended: how far its estimate of the object's position is from the
+    truth on validation scenes (cm), watching the expert and acting, and whether it passed the limit."""
+    rows = []
+    for fc in cfg.train.num_fc_layers:
+        for policy_type in POLICY_TYPES:
+            for train_seed in cfg.train.seeds:
+                suffix = seed_suffix(None if train_seed == cfg.train.seed else train_seed)
+                name = perception_stage_name(f"train_{policy_type}_fc{fc}{suffix}")
+                if name not in ended:
+                    continue
+                record = json.loads((stage_output(stages, name) / "perception.json").read_text())
+                rows.append(
+                    {
+                        "model": policy_type.upper(),
+                        "num_fc_layers": fc,
+                        "train_seed": train_seed,
+                        "scenes": len(record["scene_seeds"]),
+                        "split": record["split"],
+                        "steps": record["steps"],
+                        **{driver: record[driver] for driver in ("watching_expert", "acting")},
+                        "max_object_error_cm": record["max_object_error_cm"],
+                        "passed": record["passed"],
+                    }
+                )
+    return rows
+
+
+def perception_table(rows: list[dict]) -> str:
+    """Markdown: one line per checked policy, median object and grip estimate errors in cm."""
+    first = rows[0]
+    lines = [
+        f"| policy ({first['scenes']} {first['split']} scenes, first {first['steps']} steps) | #fc | "
+        "training seed | object, watching the expert [cm] | object, acting [cm] | grip, acting [cm] | "
+        "limit [cm] |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for row in rows:
+        limit = f"{row['max_object_error_cm']:g}" if row["max_object_error_cm"] else "report only"
+        lines.append(
+            f"| {row['model']} | {row['num_fc_layers']} | {row['train_seed']} | "
+            f"{row['watching_expert']['object_cm']:.1f} | {row['acting']['object_cm']:.1f} | "
+            f"{row['acting']['grip_cm']:.1f} | {limit} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
 def load_eval_info(folder: Path) -> dict:
     return json.loads((folder / EVAL_INFO_FILE).read_text())
 
@@ -254,12 +303,14 @@ def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageR
         training_seed_rows(cfg, stages, fcs, ended) if cfg.train.extra_seeds else ([], [])
     )
     seeds_done = all(name in ended for name in seed_eval_stages(cfg, cfg.train.num_fc_layers))
+    perception = perception_rows(cfg, stages, ended)
     payload = {
         "task": cfg.task,
         "preset": cfg.preset,
         "complete": fcs == cfg.train.num_fc_layers and seeds_done,
         "rows": rows,
         "per_fc": per_fc,
+        "perception": perception,
         **({"training_seeds": {"rows": seed_rows, "summary": seed_summary}} if cfg.train.extra_seeds else {}),
         "stage_wall_s": {t.name: round(t.wall_s, 1) for t in timings},
         "total_wall_s": round(sum(t.wall_s for t in timings), 1),
@@ -283,6 +334,11 @@ def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageR
             "\n## Training seeds: VMC and BVMC trained from each seed, no recovery, the same test scenes\n\n"
             + training_seed_table(seed_rows, seed_summary)
             + (f"\n(training seeds {', '.join(map(str, waiting))} not evaluated yet)\n" if waiting else "")
+        )
+    if perception:
+        lines.append(
+            "\n## Perception check: did each policy learn where the object is? (median estimate errors)\n\n"
+            + perception_table(perception)
         )
     (out / "table.md").write_text("".join(lines))
     return out

@@ -1,9 +1,10 @@
 """The study's stages: each one a command of this project, its own output folder and the file that marks it
 done. `build_stages` turns a `PipelineConfig` into the ordered list the runner executes.
 
-collect, then for each #fc: train vmc and bvmc -> foresight -> threshold -> evals of the Table I rows on the
-same test scenes -> Fig. 3 episodes -> detection metrics -> for each extra training seed, vmc and bvmc
-trained again and evaluated on the same test scenes. (The results table is written by the runner.)
+collect, then for each #fc: train vmc and bvmc, each checked right after its training (did it learn where
+the object is?) -> foresight -> threshold -> evals of the Table I rows on the same test scenes -> Fig. 3
+episodes -> detection metrics -> for each extra training seed, vmc and bvmc trained again, checked and
+evaluated on the same test scenes. (The results table is written by the runner.)
 """
 
 from __future__ import annotations
@@ -107,7 +108,8 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
     seed = f"--seed={cfg.seed}"
     # One #fc after the other, so that a long study has the first #fc's rows while the next one trains.
     for fc in t.num_fc_layers:
-        stages += train_stages(cfg, fc, data, c.dataset.repo_id or repo_id)
+        for training in train_stages(cfg, fc, data, c.dataset.repo_id or repo_id):
+            stages += [training, perception_stage(cfg, training, env_flags, gate=True)]
         bvmc = root / "train" / f"bvmc_fc{fc}" / CHECKPOINT
         foresight = root / "foresight" / f"fc{fc}"
         threshold = root / "threshold" / f"fc{fc}"
@@ -210,7 +212,8 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
         )
         for train_seed in t.extra_seeds:
             trainings = train_stages(cfg, fc, data, c.dataset.repo_id or repo_id, train_seed)
-            stages += trainings
+            for training in trainings:
+                stages += [training, perception_stage(cfg, training, env_flags, gate=False)]
             for policy_type, training in zip(POLICY_TYPES, trainings, strict=True):
                 name = seed_eval_stage_name(policy_type, fc, train_seed)
                 stages.append(
@@ -285,6 +288,38 @@ def train_stages(
             )
         )
     return stages
+
+
+def perception_stage_name(training: str) -> str:
+    """`check_vmc_fc1` for `train_vmc_fc1` (and `check_bvmc_fc1_seed2000` for `train_bvmc_fc1_seed2000`)."""
+    return "check_" + training.removeprefix("train_")
+
+
+def perception_stage(cfg: PipelineConfig, training: Stage, env_flags: list[str], gate: bool) -> Stage:
+    """`lerobot-ivmc-perception` on validation scenes right after `training`. With `gate` (the main
+    training seed) it fails, stopping the study, when the policy misjudges the object's position by more
+    than `perception.max_object_error_cm`; otherwise (extra seeds) it only reports. No stage reads it, so
+    its settings change no other stage's fingerprint."""
+    p = cfg.perception
+    name = perception_stage_name(training.name)
+    out = cfg.root.resolve() / "perception" / name.removeprefix("check_")
+    return Stage(
+        name,
+        [
+            "lerobot-ivmc-perception",
+            f"--policy.path={training.output / CHECKPOINT}",
+            *env_flags,
+            "--env.split=val",
+            f"--n_scenes={p.n_scenes}",
+            f"--steps={p.steps}",
+            f"--seed={cfg.seed}",
+            f"--max_object_error_cm={p.max_object_error_cm if gate else 0}",
+            f"--output_dir={out}",
+        ],
+        output=out,
+        done_file=out / "perception.json",
+        depends=[training.name],
+    )
 
 
 def eval_stage_name(policy_type: str, fc: int, mode: str | None) -> str:

@@ -52,6 +52,20 @@ def test_presets_load_and_any_field_can_be_overridden(tmp_path: Path) -> None:
     # bf16 only where the CPU runs it natively (elsewhere it is emulated, and slower than fp32).
     bf16 = "bf16" if cpu_has_native_bf16() else "no"
     assert train.env == {"ACCELERATE_MIXED_PRECISION": bf16}
+    # Each training is checked right after it: did the policy learn where the object is? Main-seed policies
+    # stop the study above the limit; nothing reads the check, so its settings change no other stage.
+    names = [s.name for s in build_stages(cfg)]
+    assert names[1:5] == ["train_vmc_fc1", "check_vmc_fc1", "train_bvmc_fc1", "check_bvmc_fc1"]
+    check_stage = stages["check_bvmc_fc1"]
+    assert check_stage.depends == ["train_bvmc_fc1"]
+    assert (
+        f"--policy.path={stages['train_bvmc_fc1'].output}/checkpoints/last/pretrained_model"
+        in check_stage.argv
+    )
+    assert {"--env.split=val", "--n_scenes=20", "--steps=30", "--max_object_error_cm=5.0"} <= set(
+        check_stage.argv
+    )
+    assert not any(check_stage.name in s.depends for s in stages.values())
     paper_stages = {s.name: s for s in build_stages(paper)}
     assert "--eval.n_episodes=800" in paper_stages["fig3_fc2"].argv
     # Widened min_unc candidates reach the distillation; at 0 (the paper's samples) the flag is left out, so
@@ -76,10 +90,14 @@ def test_extra_training_seeds_add_stages_and_leave_the_study_s_own_untouched(tmp
     extra = {s.name: s for s in seeded[len(plain) :]}
     assert list(extra) == [
         "train_vmc_fc1_seed2000",
+        "check_vmc_fc1_seed2000",
         "train_bvmc_fc1_seed2000",
+        "check_bvmc_fc1_seed2000",
         "eval_vmc_fc1_seed2000",
         "eval_bvmc_fc1_seed2000",
     ]
+    # An extra seed's policies are checked and reported, never stop the study.
+    assert "--max_object_error_cm=0" in extra["check_bvmc_fc1_seed2000"].argv
     train = extra["train_bvmc_fc1_seed2000"]
     assert "--seed=2000" in train.argv and "--seed=1000" not in train.argv
     assert train.output == tmp_path.resolve() / "train" / "bvmc_fc1_seed2000"
@@ -113,6 +131,8 @@ def test_bad_input_is_refused_with_what_to_do(capsys: pytest.CaptureFixture) -> 
         assert same_seed.returncode == 2 and "--train.extra_seeds must differ" in same_seed.stderr
     negative = pipeline("--task=push", "--preset=smoke", "--train.extra_seeds=[-1]")
     assert negative.returncode == 2 and "Training seeds must be in" in negative.stderr
+    negative_limit = pipeline("--task=push", "--preset=smoke", "--perception.max_object_error_cm=-1")
+    assert negative_limit.returncode == 2 and "max_object_error_cm must be >= 0" in negative_limit.stderr
     no_plain_bvmc = pipeline(
         "--task=push", "--preset=smoke", "--train.extra_seeds=[7]", "--recovery_modes=[min_unc]"
     )
@@ -173,6 +193,15 @@ def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Pa
         for label in ("| VMC |", "| BVMC |", "BVMC + rand", "BVMC + init", "BVMC + min unc", "vs BVMC")
     )
     assert set(results["stage_wall_s"]) >= {"collect", "train_vmc_fc1", "threshold_fc1", "detect_fc1"}
+    # Each policy's perception check is reported (smoke only reports: 4-step policies never learn it).
+    assert [(r["model"], r["train_seed"], r["passed"]) for r in results["perception"]] == [
+        ("VMC", 1000, True),
+        ("BVMC", 1000, True),
+    ]
+    for row in results["perception"]:
+        assert row["scenes"] == 2 and row["split"] == "val" and row["max_object_error_cm"] == 0
+        assert row["acting"]["object_cm"] > 0 and len(row["acting"]["per_scene_object_cm"]) == 2
+    assert "Perception check" in table
     assert first.stdout.count("done earlier") == len(results["stage_wall_s"]), first.stdout
 
     before = sorted((p, p.stat().st_mtime_ns) for p in out.rglob("*"))
@@ -184,7 +213,7 @@ def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Pa
     seeded = pipeline("--task=push", "--preset=smoke", f"--output_dir={out}", "--train.extra_seeds=[7]")
     assert seeded.returncode == 0, seeded.stdout[-3000:] + seeded.stderr[-3000:]
     assert seeded.stdout.count("done earlier") == len(results["stage_wall_s"]), seeded.stdout
-    assert seeded.stdout.count(": running") == 4, seeded.stdout
+    assert seeded.stdout.count(": running") == 6, seeded.stdout
     with_seed = json.loads((out / "results" / "push.json").read_text())
     assert with_seed["complete"] is True and with_seed["rows"] == results["rows"]
     spread = with_seed["training_seeds"]
@@ -207,3 +236,24 @@ def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Pa
         assert entry["subtasks"]["push"]["mean"] == pytest.approx(sum(rates) / 2)
         assert entry["subtasks"]["push"]["std"] == pytest.approx(abs(rates[0] - rates[1]) / 2**0.5)
     assert "mean +- sd over 2 seeds" in (out / "results" / "table.md").read_text()
+    assert [(r["model"], r["train_seed"]) for r in with_seed["perception"]] == [
+        ("VMC", 1000),
+        ("VMC", 7),
+        ("BVMC", 1000),
+        ("BVMC", 7),
+    ]
+
+    # A limit the policies miss stops the study at the first check, before anything after it runs; the
+    # finished stages stay, and going back reruns only that check.
+    strict = pipeline(
+        "--task=push", "--preset=smoke", f"--output_dir={out}", "--perception.max_object_error_cm=0.01"
+    )
+    assert strict.returncode == 1, strict.stdout[-3000:] + strict.stderr[-3000:]
+    assert (
+        "Stage check_vmc_fc1 failed" in strict.stderr and "did not learn where the object is" in strict.stderr
+    )
+    assert strict.stdout.count(": running") == 1 and "check_bvmc_fc1" not in strict.stdout, strict.stdout
+    assert json.loads((out / "results" / "push.json").read_text()) == with_seed
+    back = pipeline("--task=push", "--preset=smoke", f"--output_dir={out}", "--train.extra_seeds=[7]")
+    assert back.returncode == 0, back.stdout[-3000:] + back.stderr[-3000:]
+    assert back.stdout.count(": running") == 1 and "check_vmc_fc1: running" in back.stdout, back.stdout
