@@ -55,17 +55,22 @@ class BeliefReader:
         self.policy.reset()
 
     @torch.no_grad()
-    def step(self, observation: dict) -> PolicyStep:
-        """Feed one observation of a single env (as `env.step` returns it); advances the memory."""
+    def step(self, observation: dict, with_action: bool = True) -> PolicyStep:
+        """Feed one observation of a single env (as `env.step` returns it); advances the memory.
+
+        Args:
+            with_action: also compute the executed action (a bvmc's Monte Carlo mean and uncertainty);
+                False reads only the beliefs (the returned action is then VMC's deterministic one).
+        """
         batch = self.loaded.to_policy_batch(batch_observations([observation]))
-        if self.bayesian:
+        if self.bayesian and with_action:
             prediction = self.policy.sample(batch)
             embedding, uncertainty = prediction.embedding, float(prediction.uncertainty[0])
         else:
             embedding, uncertainty = self.policy.step_embedding(batch), None
         # The deterministic pass: the positions the net believes, and VMC's action (its select_action's).
         outputs = self.policy.net.decode(embedding, stochastic=False, with_goal=self.with_goal)
-        if self.bayesian:
+        if self.bayesian and with_action:
             action = prediction.mean_action[0]
         else:
             action = deterministic_action(outputs[0], outputs[1])[0]

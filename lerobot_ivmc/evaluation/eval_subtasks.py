@@ -93,8 +93,8 @@ def env_state_stats(preprocessor) -> tuple[torch.Tensor, torch.Tensor]:
             mean = stats[OBS_ENV_STATE]["mean"].float().cpu()
             return mean, stats[OBS_ENV_STATE]["std"].float().cpu() + step.eps
     raise ValueError(
-        f"The policy's preprocessor has no statistics for {OBS_ENV_STATE!r}: recovery reads the grip "
-        "position from it. Evaluate a checkpoint saved by lerobot-train (it stores the processors)."
+        f"The policy's preprocessor has no statistics for {OBS_ENV_STATE!r}: the grip and object positions "
+        "are read in its units. Use a checkpoint saved by lerobot-train (it stores the processors)."
     )
 
 

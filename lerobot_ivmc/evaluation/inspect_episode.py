@@ -75,29 +75,31 @@ def inspect_episode(cfg: InspectConfig) -> dict:
     check_inputs(cfg)
     reader = BeliefReader(load_policy(cfg))
     env = make_task_env_from_config(cfg.env)
-    torch.manual_seed(cfg.seed or 0)  # the Monte Carlo masks
-    observation, _ = env.reset(seed=cfg.episode_seed)
-    reader.reset()
-    keys = ["grip", "object", "target", "believed_grip", "believed_object", "action", "grasped"]
-    record: dict[str, list] = {k: [] for k in keys + (["believed_goal"] if reader.with_goal else [])}
-    record["uncertainty"] = []
-    info: dict = {}
-    for step in range(cfg.env.episode_length):
-        policy_step = reader.step(observation)
-        record["uncertainty"].append(policy_step.uncertainty)
-        for name, position in policy_step.beliefs.items():
-            record[f"believed_{name}"].append(position)
-        record["grip"].append(env.grip_position.tolist())
-        record["object"].append(env.object_position.tolist())
-        record["target"].append(env.target_position.tolist())
-        record["grasped"].append(bool(env.is_grasped()))
-        record["action"].append(policy_step.action.tolist())
-        if cfg.print_every and step % cfg.print_every == 0:
-            print(format_step(step, record))
-        observation, _, terminated, _, info = env.step(policy_step.action.numpy())
-        if terminated:
-            break
-    env.close()
+    try:
+        torch.manual_seed(cfg.seed or 0)  # the Monte Carlo masks
+        observation, _ = env.reset(seed=cfg.episode_seed)
+        reader.reset()
+        keys = ["grip", "object", "target", "believed_grip", "believed_object", "action", "grasped"]
+        record: dict[str, list] = {k: [] for k in keys + (["believed_goal"] if reader.with_goal else [])}
+        record["uncertainty"] = []
+        info: dict = {}
+        for step in range(cfg.env.episode_length):
+            policy_step = reader.step(observation)
+            record["uncertainty"].append(policy_step.uncertainty)
+            for name, position in policy_step.beliefs.items():
+                record[f"believed_{name}"].append(position)
+            record["grip"].append(env.grip_position.tolist())
+            record["object"].append(env.object_position.tolist())
+            record["target"].append(env.target_position.tolist())
+            record["grasped"].append(bool(env.is_grasped()))
+            record["action"].append(policy_step.action.tolist())
+            if cfg.print_every and step % cfg.print_every == 0:
+                print(format_step(step, record))
+            observation, _, terminated, _, info = env.step(policy_step.action.numpy())
+            if terminated:
+                break
+    finally:
+        env.close()
     return {
         "task": cfg.env.task,
         "split": cfg.env.split,

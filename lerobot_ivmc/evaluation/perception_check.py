@@ -9,8 +9,9 @@ median over its steps, the policy's the median over scenes.
 
 Some training runs never learn to localise the object (docs/RESULTS.md: a second training seed of the lite
 recipe, acting error 12-15 cm against 1-2 cm for the runs that learned; they placed in 2-9% of test scenes).
-With `--max_object_error_cm` > 0 the command exits 1 when the acting error exceeds it (after writing its
-record), so a pipeline stops there.
+With `--max_object_error_cm` > 0 the record says whether the acting error stays within it, and the command
+exits 1 when it does not (after writing its record; `--fail_above_limit=false` only records the verdict), so
+a pipeline stops there.
 
     lerobot-ivmc-perception --policy.path=<checkpoint> --env.type=ivmc --env.task=pick_place \\
         --env.split=val --n_scenes=20 --seed=0 --output_dir=outputs/perception
@@ -22,6 +23,7 @@ import statistics
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 import torch
@@ -30,14 +32,18 @@ from lerobot.configs.eval import EvalPipelineConfig
 
 from lerobot_ivmc.envs import make_task_env_from_config
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
+from lerobot_ivmc.envs.fetch_env import IvmcFetchEnv
 from lerobot_ivmc.evaluation.beliefs import BeliefReader
 from lerobot_ivmc.evaluation.compatibility import check_policy_matches_env
 from lerobot_ivmc.evaluation.loading import load_policy
-from lerobot_ivmc.experts import make_expert
+from lerobot_ivmc.experts import WaypointExpert, make_expert
 from lerobot_ivmc.scripts.errors import cli_main
 
 RECORD_FILE = "perception.json"
 DRIVERS = ("watching_expert", "acting")
+LEARNED_CM = (
+    "0.9 to 1.9"  # acting object error of the lite pick_place policies that learned (docs/RESULTS.md)
+)
 
 
 @dataclass
@@ -48,12 +54,15 @@ class PerceptionCheckConfig(EvalPipelineConfig):
         n_scenes: scenes measured: the scenes of seeds `seed`, `seed + 1`, ... of `--env.split`.
         steps: steps measured from each episode's start (the object is still where it was spawned, or
             just being grasped: where a policy that does not know where it is goes wrong).
-        max_object_error_cm: exit 1 when the acting object error exceeds this many cm; 0 only reports.
+        max_object_error_cm: the largest acting object error (cm) a policy that learned where the object is
+            shows; 0: no limit, only report.
+        fail_above_limit: exit 1 when the acting error exceeds the limit (false: only record the verdict).
     """
 
     n_scenes: int = 20
     steps: int = 30
     max_object_error_cm: float = 0.0
+    fail_above_limit: bool = True
 
 
 def check_inputs(cfg: PerceptionCheckConfig) -> None:
@@ -65,6 +74,10 @@ def check_inputs(cfg: PerceptionCheckConfig) -> None:
         raise ValueError(f"lerobot-ivmc-perception reads vmc and bvmc networks, got {cfg.policy.type!r}.")
     if cfg.steps <= 0 or cfg.n_scenes <= 0:
         raise ValueError(f"--steps and --n_scenes must be positive, got {cfg.steps}, {cfg.n_scenes}.")
+    if cfg.steps > cfg.env.episode_length:
+        raise ValueError(
+            f"--steps={cfg.steps} is longer than an episode (--env.episode_length={cfg.env.episode_length})."
+        )
     if cfg.max_object_error_cm < 0:
         raise ValueError(
             f"--max_object_error_cm must be >= 0 (0: only report), got {cfg.max_object_error_cm}."
@@ -75,20 +88,30 @@ def check_inputs(cfg: PerceptionCheckConfig) -> None:
     check_policy_matches_env(cfg.policy, cfg.env)
 
 
-def scene_errors(reader: BeliefReader, env, expert, scene_seed: int, steps: int, driver: str) -> dict:
+def scene_errors(
+    reader: BeliefReader,
+    env: IvmcFetchEnv,
+    expert: WaypointExpert,
+    scene_seed: int,
+    steps: int,
+    driver: Literal["watching_expert", "acting"],
+) -> dict[str, list[float]]:
     """Per-step distance (m) between the believed and the true grip and object positions on one scene, the
-    expert (`driver="watching_expert"`) or the policy itself (`"acting"`) choosing the actions."""
+    expert (`driver="watching_expert"`) or the policy itself (`"acting"`) choosing the actions. Each
+    estimate is compared with the state the observation it came from was rendered in."""
     observation, _ = env.reset(seed=scene_seed)
     reader.reset()
     expert.reset()
+    acting = driver == "acting"
+    torch.manual_seed(scene_seed)  # a bvmc's Monte Carlo masks: the same per scene, whatever ran before
     errors: dict[str, list[float]] = {"object": [], "grip": []}
     for _ in range(steps):
-        step = reader.step(observation)
+        step = reader.step(observation, with_action=acting)
         errors["object"].append(
             float(np.linalg.norm(np.subtract(step.beliefs["object"], env.object_position)))
         )
         errors["grip"].append(float(np.linalg.norm(np.subtract(step.beliefs["grip"], env.grip_position))))
-        action = expert.act() if driver == "watching_expert" else step.action.numpy()
+        action = step.action.numpy() if acting else expert.act()
         observation, _, terminated, truncated, _ = env.step(action)
         if terminated or truncated:
             break
@@ -105,16 +128,14 @@ def summarise(per_scene: list[dict]) -> dict:
     return out
 
 
-@torch.no_grad()
 def check_perception(cfg: PerceptionCheckConfig) -> dict:
     """Measure the object and grip estimates of `cfg.policy` on the scenes; returns the record."""
     check_inputs(cfg)
     reader = BeliefReader(load_policy(cfg))
+    seeds = [(cfg.seed or 0) + i for i in range(cfg.n_scenes)]
     env = make_task_env_from_config(cfg.env)
-    expert = make_expert(env)
-    seeds = [cfg.seed + i for i in range(cfg.n_scenes)]
-    torch.manual_seed(cfg.seed)  # Monte Carlo masks of a bvmc's acting
     try:
+        expert = make_expert(env)
         measured = {
             driver: summarise([scene_errors(reader, env, expert, s, cfg.steps, driver) for s in seeds])
             for driver in DRIVERS
@@ -131,21 +152,23 @@ def check_perception(cfg: PerceptionCheckConfig) -> dict:
         "steps": cfg.steps,
         **measured,
         "max_object_error_cm": limit,
-        "passed": limit == 0 or measured["acting"]["object_cm"] <= limit,
+        # None without a limit: nothing was judged.
+        "passed": None if limit == 0 else measured["acting"]["object_cm"] <= limit,
     }
 
 
-def failure_message(record: dict) -> str:
+def failure_message(record: dict, path: Path) -> str:
+    """What went wrong, where the measurements are, and what to do."""
     acting = record["acting"]["object_cm"]
     scenes = f"{len(record['scene_seeds'])} {record['split']} scenes"
     return (
         f"error: the {record['policy_type']} at {record['policy_path']} did not learn where the object is: "
         f"acting on {scenes}, its estimate of the object's position is off by a median {acting:.1f} cm "
-        f"over the first {record['steps']} steps (limit {record['max_object_error_cm']:g} cm; policies "
-        "that learned it measure 1-2 cm, docs/RESULTS.md). Rows evaluated from it would say little about "
-        "recovery. Train it again from another seed or for longer (lerobot-ivmc-pipeline: --train.seed=..., "
-        "--train.steps=...), or set the limit to 0 to only report (--perception.max_object_error_cm=0 in "
-        "the pipeline)."
+        f"over the first {record['steps']} steps (limit {record['max_object_error_cm']:g} cm; on "
+        f"pick_place, policies that learned it measured {LEARNED_CM} cm, docs/RESULTS.md; details: {path}). "
+        "Rows evaluated from it would say little about recovery. Train it again from another seed or for "
+        "longer (lerobot-ivmc-pipeline: --train.seed=..., --train.steps=...), or go on with it by lifting "
+        "the limit (0 only reports; --perception.max_object_error_cm=0 in the pipeline)."
     )
 
 
@@ -161,8 +184,8 @@ def perception_main(cfg: PerceptionCheckConfig) -> dict:
             f"{driver}: object {m['object_cm']:.2f} cm, grip {m['grip_cm']:.2f} cm (median of scene medians)"
         )
     print(f"wrote {out / RECORD_FILE}")
-    if not record["passed"]:
-        sys.exit(failure_message(record))
+    if record["passed"] is False and cfg.fail_above_limit:
+        sys.exit(failure_message(record, out / RECORD_FILE))
     return record
 
 

@@ -1,5 +1,6 @@
 """The study's results in the layout of the paper's Table I: JSON for programs, markdown for people, the
-Fig. 3 plot and detection metrics per #fc, and a few recovery videos, gathered in `<root>/results/`."""
+Fig. 3 plot and detection metrics per #fc, a few recovery videos, the training seeds' spread and each
+policy's perception check, gathered in `<root>/results/`."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ from lerobot_ivmc.pipeline.config import POLICY_TYPES, PipelineConfig
 from lerobot_ivmc.pipeline.paper_table import PAPER_TABLE
 from lerobot_ivmc.pipeline.runner import StageResult, write_json_atomic
 from lerobot_ivmc.pipeline.stages import (
+    PERCEPTION_RECORD,
     Stage,
     eval_stage_name,
     fig3_stage_name,
@@ -158,7 +160,7 @@ def perception_rows(cfg: PipelineConfig, stages: list[Stage], ended: set[str]) -
                 name = perception_stage_name(f"train_{policy_type}_fc{fc}{suffix}")
                 if name not in ended:
                     continue
-                record = json.loads((stage_output(stages, name) / "perception.json").read_text())
+                record = json.loads((stage_output(stages, name) / PERCEPTION_RECORD).read_text())
                 rows.append(
                     {
                         "model": policy_type.upper(),
@@ -184,8 +186,10 @@ def perception_table(rows: list[dict]) -> str:
         "limit [cm] |",
         "|---|---|---|---|---|---|---|",
     ]
+    verdicts = {True: "within", False: "**above**", None: "no limit"}
     for row in rows:
-        limit = f"{row['max_object_error_cm']:g}" if row["max_object_error_cm"] else "report only"
+        limit = row["max_object_error_cm"]
+        limit = f"{limit:g}: {verdicts[row['passed']]}" if limit else verdicts[None]
         lines.append(
             f"| {row['model']} | {row['num_fc_layers']} | {row['train_seed']} | "
             f"{row['watching_expert']['object_cm']:.1f} | {row['acting']['object_cm']:.1f} | "

@@ -14,6 +14,7 @@ import sys
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from lerobot_ivmc.evaluation.perception_check import RECORD_FILE as PERCEPTION_RECORD
 from lerobot_ivmc.pipeline.config import POLICY_TYPES, PipelineConfig
 from lerobot_ivmc.policies.vmc.modeling_vmc import cpu_has_native_bf16
 
@@ -296,10 +297,10 @@ def perception_stage_name(training: str) -> str:
 
 
 def perception_stage(cfg: PipelineConfig, training: Stage, env_flags: list[str], gate: bool) -> Stage:
-    """`lerobot-ivmc-perception` on validation scenes right after `training`. With `gate` (the main
-    training seed) it fails, stopping the study, when the policy misjudges the object's position by more
-    than `perception.max_object_error_cm`; otherwise (extra seeds) it only reports. No stage reads it, so
-    its settings change no other stage's fingerprint."""
+    """`lerobot-ivmc-perception` on validation scenes right after `training`: whether the policy misjudges
+    the object's position by more than `perception.max_object_error_cm`. With `gate` (the main training
+    seed) such a policy fails the stage, which stops the study; otherwise (extra seeds) the verdict is only
+    recorded. No stage reads it, so its settings change no other stage's fingerprint."""
     p = cfg.perception
     name = perception_stage_name(training.name)
     out = cfg.root.resolve() / "perception" / name.removeprefix("check_")
@@ -313,11 +314,12 @@ def perception_stage(cfg: PipelineConfig, training: Stage, env_flags: list[str],
             f"--n_scenes={p.n_scenes}",
             f"--steps={p.steps}",
             f"--seed={cfg.seed}",
-            f"--max_object_error_cm={p.max_object_error_cm if gate else 0}",
+            f"--max_object_error_cm={p.max_object_error_cm}",
+            *([] if gate else ["--fail_above_limit=false"]),
             f"--output_dir={out}",
         ],
         output=out,
-        done_file=out / "perception.json",
+        done_file=out / PERCEPTION_RECORD,
         depends=[training.name],
     )
 

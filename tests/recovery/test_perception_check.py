@@ -37,8 +37,9 @@ def env_state_stats(checkpoint: Path) -> tuple[np.ndarray, np.ndarray]:
 
 
 def fixed_belief_policy(tiny_bvmc: Path, out: Path, believed_object: np.ndarray) -> Path:
-    """A vmc checkpoint (with the tiny checkpoint's processors) that never moves the arm (zero delta, gripper
-    open) and always believes the object is at `believed_object`."""
+    """A vmc checkpoint (with the tiny checkpoint's processors) that never moves the arm (zero delta; gripper
+    logits all 0, so the command of class 0), always believes the object is at `believed_object` and the grip
+    at the mean of the training frames."""
     policy = VMCPolicy(make_config(VMCConfig))
     mean, std = env_state_stats(tiny_bvmc)
     with torch.no_grad():
@@ -60,15 +61,15 @@ def initial_object(seed: int) -> np.ndarray:
     return position
 
 
-def expert_object_track(seed: int, steps: int) -> list[np.ndarray]:
-    """The object's position before each of the expert's first `steps` actions on a val scene."""
+def expert_track(seed: int, steps: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The grip and object positions before each of the expert's first `steps` actions on a val scene."""
     env = make_task_env("pick_place", split="val", image_size=64)
     expert = make_expert(env)
     env.reset(seed=seed)
     expert.reset()
     track = []
     for _ in range(steps):
-        track.append(env.object_position)
+        track.append((env.grip_position, env.object_position))
         env.step(expert.act())
     env.close()
     return track
@@ -92,14 +93,18 @@ def check(checkpoint: Path, out: Path, *flags: str) -> dict:
 def test_errors_are_measured_against_the_true_positions(tiny_bvmc: Path, tmp_path: Path):
     steps, believed = 25, initial_object(0)
     checkpoint = fixed_belief_policy(tiny_bvmc, tmp_path / "policy", believed)
+    believed_grip = env_state_stats(checkpoint)[0][:3]
     record = check(checkpoint, tmp_path / "out", "--n_scenes=3", f"--steps={steps}", "--seed=0")
-    assert record["scene_seeds"] == [0, 1, 2] and record["passed"] is True  # limit 0: report only
+    assert record["scene_seeds"] == [0, 1, 2] and record["passed"] is None  # no limit: nothing judged
     for scene in range(3):
-        # Watching the expert, the object moves once grasped: the error of every step, before its action.
-        errors = [np.linalg.norm(believed - p) for p in expert_object_track(scene, steps)]
-        assert record["watching_expert"]["per_scene_object_cm"][scene] == pytest.approx(
-            100 * statistics.median(errors), abs=0.05
-        )
+        # Watching, the grip moves at every step: each estimate is compared with the state it was made in.
+        track = expert_track(scene, steps)
+        watching = record["watching_expert"]
+        for part, believed_position, index in (("grip", believed_grip, 0), ("object", believed, 1)):
+            errors = [np.linalg.norm(believed_position - positions[index]) for positions in track]
+            assert watching[f"per_scene_{part}_cm"][scene] == pytest.approx(
+                100 * statistics.median(errors), abs=0.05
+            )
         # Acting, this policy never moves the arm: the object stays where it was spawned.
         acting = 100 * np.linalg.norm(believed - initial_object(scene))
         assert record["acting"]["per_scene_object_cm"][scene] == pytest.approx(acting, abs=0.05)
@@ -152,4 +157,8 @@ def test_bad_input_is_refused(tiny_bvmc: Path, tmp_path: Path):
         check(tiny_bvmc, tmp_path / "a", "--max_object_error_cm=-1")
     with pytest.raises(ValueError, match="must be positive"):
         check(tiny_bvmc, tmp_path / "b", "--n_scenes=0")
+    with pytest.raises(ValueError, match="must be positive"):
+        check(tiny_bvmc, tmp_path / "b", "--steps=0")
+    with pytest.raises(ValueError, match="longer than an episode"):
+        check(tiny_bvmc, tmp_path / "b", "--steps=31")
     assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
