@@ -10,14 +10,27 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import torch
+from lerobot.configs.eval import EvalPipelineConfig
 from torch import Tensor
 
+from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
 from lerobot_ivmc.evaluation.eval_subtasks import env_state_stats
 from lerobot_ivmc.evaluation.loading import LoadedPolicy
 from lerobot_ivmc.policies.vmc.modeling_vmc import deterministic_action
 from lerobot_ivmc.recovery.foresight_ranking import batch_observations
 
 GRIP, OBJECT = slice(0, 3), slice(3, 6)
+
+
+def check_network_request(cfg: EvalPipelineConfig, command: str) -> None:
+    """Refuse, naming `command`, a config whose env is not an ivmc task or whose policy is not a vmc or
+    bvmc checkpoint (the networks whose beliefs `BeliefReader` reads)."""
+    if not isinstance(cfg.env, IvmcEnv):
+        raise ValueError(f"{command} runs on --env.type=ivmc, got {cfg.env.type!r}.")
+    if cfg.policy is None or cfg.policy.pretrained_path is None:
+        raise ValueError("Pass --policy.path=<vmc or bvmc checkpoint folder>.")
+    if cfg.policy.type not in ("vmc", "bvmc"):
+        raise ValueError(f"{command} reads vmc and bvmc networks, got {cfg.policy.type!r}.")
 
 
 @dataclass

@@ -20,8 +20,7 @@ from lerobot.configs import parser
 from lerobot.configs.eval import EvalPipelineConfig
 
 from lerobot_ivmc.envs import make_task_env_from_config
-from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
-from lerobot_ivmc.evaluation.beliefs import BeliefReader
+from lerobot_ivmc.evaluation.beliefs import BeliefReader, check_network_request
 from lerobot_ivmc.evaluation.compatibility import check_policy_matches_env
 from lerobot_ivmc.evaluation.loading import load_policy
 from lerobot_ivmc.scripts.errors import cli_main
@@ -47,12 +46,7 @@ class InspectConfig(EvalPipelineConfig):
 
 
 def check_inputs(cfg: InspectConfig) -> None:
-    if not isinstance(cfg.env, IvmcEnv):
-        raise ValueError(f"lerobot-ivmc-inspect runs on --env.type=ivmc, got {cfg.env.type!r}.")
-    if cfg.policy is None or cfg.policy.pretrained_path is None:
-        raise ValueError("Pass --policy.path=<vmc or bvmc checkpoint folder>.")
-    if cfg.policy.type not in ("vmc", "bvmc"):
-        raise ValueError(f"lerobot-ivmc-inspect reads vmc and bvmc networks, got {cfg.policy.type!r}.")
+    check_network_request(cfg, "lerobot-ivmc-inspect")
     if cfg.print_every < 0:
         raise ValueError(f"--print_every must be >= 0, got {cfg.print_every}.")
     existing = output_paths(cfg)[0]

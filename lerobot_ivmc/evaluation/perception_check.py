@@ -32,9 +32,8 @@ from lerobot.configs import parser
 from lerobot.configs.eval import EvalPipelineConfig
 
 from lerobot_ivmc.envs import make_task_env_from_config
-from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
 from lerobot_ivmc.envs.fetch_env import IvmcFetchEnv
-from lerobot_ivmc.evaluation.beliefs import BeliefReader
+from lerobot_ivmc.evaluation.beliefs import BeliefReader, check_network_request
 from lerobot_ivmc.evaluation.compatibility import check_policy_matches_env
 from lerobot_ivmc.evaluation.loading import load_policy
 from lerobot_ivmc.experts import WaypointExpert, make_expert
@@ -67,12 +66,7 @@ class PerceptionCheckConfig(EvalPipelineConfig):
 
 
 def check_inputs(cfg: PerceptionCheckConfig) -> None:
-    if not isinstance(cfg.env, IvmcEnv):
-        raise ValueError(f"lerobot-ivmc-perception runs on --env.type=ivmc, got {cfg.env.type!r}.")
-    if cfg.policy is None or cfg.policy.pretrained_path is None:
-        raise ValueError("Pass --policy.path=<vmc or bvmc checkpoint folder>.")
-    if cfg.policy.type not in ("vmc", "bvmc"):
-        raise ValueError(f"lerobot-ivmc-perception reads vmc and bvmc networks, got {cfg.policy.type!r}.")
+    check_network_request(cfg, "lerobot-ivmc-perception")
     if cfg.steps <= 0 or cfg.n_scenes <= 0:
         raise ValueError(f"--steps and --n_scenes must be positive, got {cfg.steps}, {cfg.n_scenes}.")
     if cfg.steps > cfg.env.episode_length:
