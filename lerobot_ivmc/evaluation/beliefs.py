@@ -76,14 +76,15 @@ class BeliefReader:
                 False reads only the beliefs (the returned action is then VMC's deterministic one).
         """
         batch = self.loaded.to_policy_batch(batch_observations([observation]))
-        if self.bayesian and with_action:
+        sampled = self.bayesian and with_action
+        if sampled:
             prediction = self.policy.sample(batch)
             embedding, uncertainty = prediction.embedding, float(prediction.uncertainty[0])
         else:
             embedding, uncertainty = self.policy.step_embedding(batch), None
         # The deterministic pass: the positions the net believes, and VMC's action (its select_action's).
         outputs = self.policy.net.decode(embedding, stochastic=False, with_goal=self.with_goal)
-        if self.bayesian and with_action:
+        if sampled:
             action = prediction.mean_action[0]
         else:
             action = deterministic_action(outputs[0], outputs[1])[0]

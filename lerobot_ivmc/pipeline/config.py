@@ -74,7 +74,7 @@ class PerceptionStageConfig:
         steps: steps measured from each episode's start.
         max_object_error_cm: stop the study when a policy of the main training seed, acting, misjudges the
             object's position by more than this (median, cm), before foresight and evaluations are spent on
-            it; 0 only reports. Extra training seeds' policies are only reported.
+            it; 0 only reports. Extra training seeds' policies get the verdict but never stop the study.
     """
 
     n_scenes: int = 20

@@ -11,6 +11,7 @@ import statistics
 from pathlib import Path
 
 from lerobot_ivmc.evaluation.compare import EVAL_INFO_FILE, paired_outcomes
+from lerobot_ivmc.evaluation.perception_check import DRIVERS as PERCEPTION_DRIVERS
 from lerobot_ivmc.pipeline.config import POLICY_TYPES, PipelineConfig
 from lerobot_ivmc.pipeline.paper_table import PAPER_TABLE
 from lerobot_ivmc.pipeline.runner import StageResult, write_json_atomic
@@ -169,7 +170,7 @@ def perception_rows(cfg: PipelineConfig, stages: list[Stage], ended: set[str]) -
                         "scenes": len(record["scene_seeds"]),
                         "split": record["split"],
                         "steps": record["steps"],
-                        **{driver: record[driver] for driver in ("watching_expert", "acting")},
+                        **{driver: record[driver] for driver in PERCEPTION_DRIVERS},
                         "max_object_error_cm": record["max_object_error_cm"],
                         "passed": record["passed"],
                     }
