@@ -1,3 +1,15 @@
 import os
+import sys
 
 os.environ.setdefault("MUJOCO_GL", "egl")
+
+# Under pytest-xdist (scripts/test.sh runs the suite on every core), share the cores between the workers:
+# torch in each worker, and in the CLIs it starts (which inherit the variables), gets cores // workers
+# threads, so two workers' trainings do not oversubscribe the cores.
+_workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+if _workers > 1:
+    _threads = str(max(1, (os.cpu_count() or 1) // _workers))
+    for _name in ("OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(_name, _threads)
+    if "torch" in sys.modules:  # imported before this file (a plugin): set its pool directly
+        sys.modules["torch"].set_num_threads(int(_threads))
