@@ -13,3 +13,8 @@ if _workers > 1:
         os.environ.setdefault(_name, _threads)
     if "torch" in sys.modules:  # imported before this file (a plugin): set its pool directly
         sys.modules["torch"].set_num_threads(int(_threads))
+
+
+def pytest_collection_modifyitems(items: list) -> None:
+    """Start the tests marked `long` first: a worker that meets one last leaves the others idle meanwhile."""
+    items.sort(key=lambda item: item.get_closest_marker("long") is None)

@@ -157,6 +157,7 @@ def run_until_stage_starts(stage: str, *args: str) -> None:
     assert record.exists(), f"the study ended before {stage} started"
 
 
+@pytest.mark.long
 def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Path) -> None:
     out = tmp_path / "push_smoke"
     # A study of #fc = 1 and 2 stopped as #fc = 2 starts keeps the finished #fc = 1 results.
