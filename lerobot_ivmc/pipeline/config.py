@@ -13,8 +13,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from lerobot_ivmc.datasets.record_config import RecordDemosConfig
-from lerobot_ivmc.envs import TASKS
+from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, TASKS
+from lerobot_ivmc.policies.vmc.configuration_vmc import TRAINING_MODES
 from lerobot_ivmc.recovery.foresight_training import ForesightConfig
+from lerobot_ivmc.scripts.pick_threshold import THRESHOLD_METHODS
 
 PRESETS_DIR = Path(__file__).resolve().parents[2] / "configs" / "pipeline"
 RECOVERY_MODES = ("none", "rand", "init", "min_unc")
@@ -23,11 +25,20 @@ POLICY_TYPES = ("vmc", "bvmc")
 
 @dataclass
 class TrainPolicyConfig:
-    """`--policy.*` fields of `lerobot-ivmc-train` the pipeline sets (the type and #fc come per run)."""
+    """`--policy.*` fields of `lerobot-ivmc-train` the pipeline sets (the type and #fc come per run).
+
+    Args:
+        training_mode, chunk_length, goal_head: as the policies' config fields.
+        image_shift_pad, optimizer_lr: the policies' own fields; None (the presets) leaves the flag out, so
+            the policy's default applies and a study made before these fields existed keeps its
+            fingerprints.
+    """
 
     training_mode: str = "sequence"
     chunk_length: int = 100
     goal_head: bool = False
+    image_shift_pad: int | None = None
+    optimizer_lr: float | None = None
 
 
 @dataclass
@@ -179,8 +190,15 @@ class PipelineConfig:
                 f"--train.extra_seeds must differ from each other and from --train.seed={self.train.seed}, "
                 f"got {self.train.extra_seeds}."
             )
+        self.validate_stage_values()
         for name, value in (
             ("train.steps", self.train.steps),
+            ("train.batch_size", self.train.batch_size),
+            ("train.save_freq", self.train.save_freq),
+            ("eval.batch_size", self.eval.batch_size),
+            ("fig3.batch_size", self.fig3.batch_size),
+            ("threshold.batch_size", self.threshold.batch_size),
+            ("foresight.batch_size", self.foresight.batch_size),
             ("eval.n_episodes", self.eval.n_episodes),
             ("fig3.n_episodes", self.fig3.n_episodes),
             ("threshold.n_episodes", self.threshold.n_episodes),
@@ -190,6 +208,50 @@ class PipelineConfig:
         ):
             if value <= 0:
                 raise ValueError(f"--{name} must be positive, got {value}.")
+
+    def validate_stage_values(self) -> None:
+        """Refuse values a later stage would refuse, before hours of earlier stages are spent."""
+        policy = self.train.policy
+        if policy.training_mode not in TRAINING_MODES:
+            raise ValueError(
+                f"--train.policy.training_mode must be one of {TRAINING_MODES}, got {policy.training_mode!r}."
+            )
+        if not 1 <= policy.chunk_length <= DEMO_EPISODE_STEPS:
+            raise ValueError(
+                f"--train.policy.chunk_length must be in [1, {DEMO_EPISODE_STEPS}] (the demos' length), got "
+                f"{policy.chunk_length}."
+            )
+        if policy.goal_head and (
+            policy.training_mode != "sequence" or policy.chunk_length != DEMO_EPISODE_STEPS
+        ):
+            raise ValueError(
+                "--train.policy.goal_head=true needs whole demos: --train.policy.training_mode=sequence and "
+                f"--train.policy.chunk_length={DEMO_EPISODE_STEPS}."
+            )
+        if policy.image_shift_pad is not None and policy.image_shift_pad < 0:
+            raise ValueError(
+                f"--train.policy.image_shift_pad must be >= 0 pixels, got {policy.image_shift_pad}."
+            )
+        if policy.optimizer_lr is not None and not policy.optimizer_lr > 0:
+            raise ValueError(f"--train.policy.optimizer_lr must be positive, got {policy.optimizer_lr}.")
+        if self.threshold.method not in THRESHOLD_METHODS:
+            raise ValueError(
+                f"--threshold.method must be one of {THRESHOLD_METHODS}, got {self.threshold.method!r}."
+            )
+        if not 0 < self.threshold.alpha < 1:
+            raise ValueError(f"--threshold.alpha must be in (0, 1), got {self.threshold.alpha}.")
+        # The study sets these from --task, its folder and its own logs: another value would be ignored.
+        c = self.collect
+        if c.env.task and c.env.task != self.task:
+            raise ValueError(
+                f"--collect.env.task={c.env.task!r} differs from --task={self.task!r}: the study collects "
+                "demos of its own task; drop --collect.env.task."
+            )
+        if c.dataset.root is not None:
+            raise ValueError(
+                "--collect.dataset.root is set by the study (<output_dir>/data); drop it, or pass "
+                "--output_dir to put the study elsewhere."
+            )
 
     @property
     def root(self) -> Path:

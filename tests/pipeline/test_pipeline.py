@@ -73,6 +73,19 @@ def test_presets_load_and_any_field_can_be_overridden(tmp_path: Path) -> None:
     assert not any("action_noise" in a for a in stages["foresight_fc1"].argv)
     widened = parse_config(["--task=push", "--preset=lite", "--foresight.foresight.action_noise=0.3"])
     assert "--foresight.action_noise=0.3" in {s.name: s for s in build_stages(widened)}["foresight_fc1"].argv
+    # The policies' augmentation and learning rate: left out unless set (the policy's defaults apply).
+    assert not any("image_shift_pad" in a or "optimizer_lr" in a for a in train.argv)
+    tuned = parse_config(
+        [
+            "--task=push",
+            "--preset=lite",
+            "--train.policy.image_shift_pad=0",
+            "--train.policy.optimizer_lr=1e-4",
+        ]
+    )
+    for stage in build_stages(tuned):
+        if stage.name.startswith("train_"):
+            assert {"--policy.image_shift_pad=0", "--policy.optimizer_lr=0.0001"} <= set(stage.argv)
 
 
 def test_extra_training_seeds_add_stages_and_leave_the_study_s_own_untouched(tmp_path: Path) -> None:
@@ -139,6 +152,23 @@ def test_bad_input_is_refused_with_what_to_do(capsys: pytest.CaptureFixture) -> 
         "--task=push", "--preset=smoke", "--train.extra_seeds=[7]", "--recovery_modes=[min_unc]"
     )
     assert no_plain_bvmc.returncode == 2 and "needs 'none' in --recovery_modes" in no_plain_bvmc.stderr
+    # Values a late stage would refuse are refused before the study starts (not hours in).
+    for override, message in (
+        ("--threshold.method=conformall", "--threshold.method must be one of ('argmax', 'conformal')"),
+        ("--threshold.alpha=1", "--threshold.alpha must be in (0, 1)"),
+        ("--train.policy.training_mode=chunks", "--train.policy.training_mode must be one of"),
+        ("--train.policy.chunk_length=101", "--train.policy.chunk_length must be in [1, 100]"),
+        ("--train.policy.chunk_length=50", "goal_head=true needs whole demos"),
+        ("--train.policy.image_shift_pad=-2", "image_shift_pad must be >= 0"),
+        ("--train.batch_size=0", "--train.batch_size must be positive"),
+        ("--eval.batch_size=0", "--eval.batch_size must be positive"),
+        # Set by the study itself: an override would be ignored.
+        ("--collect.env.task=pick_place", "differs from --task='push'"),
+        ("--collect.dataset.root=/tmp/demos", "--collect.dataset.root is set by the study"),
+    ):
+        with pytest.raises(Exception) as refused:
+            parse_config(["--task=push", "--preset=smoke", override])
+        assert message in str(refused.value.__cause__ or refused.value), override
 
 
 def run_until_stage_starts(stage: str, *args: str) -> None:
