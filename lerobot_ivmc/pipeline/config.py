@@ -1,10 +1,10 @@
 """The pipeline's config: one nested draccus config whose sections are the stages' own commands' settings.
 
-A preset (`configs/pipeline/<name>.yaml`: smoke, lite, paper) fills it; every value can be overridden on
-the command line (`--train.steps=2000`, `--collect.dataset.num_episodes=500`), and a field that does not
-exist is refused by draccus. Section fields carry the names of the flags of the command they feed:
-`collect` is `lerobot-ivmc-collect`'s own `RecordDemosConfig`; `train.policy` holds `--policy.*` fields of
-`lerobot-ivmc-train`; `foresight` is `lerobot-ivmc-foresight`'s `--foresight.*`; and so on.
+A preset (`lerobot_ivmc/pipeline/presets/<name>.yaml`: smoke, lite, paper) fills it; every value can be
+overridden on the command line (`--train.steps=2000`, `--collect.dataset.num_episodes=500`), and a field
+that does not exist is refused by draccus. Section fields carry the names of the flags of the command they
+feed: `collect` is `lerobot-ivmc-collect`'s own `RecordDemosConfig`; `train.policy` holds `--policy.*`
+fields of `lerobot-ivmc-train`; `foresight` is `lerobot-ivmc-foresight`'s `--foresight.*`; and so on.
 """
 
 from __future__ import annotations
@@ -18,7 +18,8 @@ from lerobot_ivmc.policies.vmc.configuration_vmc import TRAINING_MODES
 from lerobot_ivmc.recovery.foresight_training import ForesightConfig
 from lerobot_ivmc.scripts.pick_threshold import THRESHOLD_METHODS
 
-PRESETS_DIR = Path(__file__).resolve().parents[2] / "configs" / "pipeline"
+# Shipped inside the package, so `--preset` works wherever the plugin is installed.
+PRESETS_DIR = Path(__file__).resolve().parent / "presets"
 RECOVERY_MODES = ("none", "rand", "init", "min_unc")
 POLICY_TYPES = ("vmc", "bvmc")
 

@@ -2,12 +2,12 @@
 
     lerobot-ivmc-pipeline --task=push --preset=lite [--output_dir=...] [--train.steps=4000 ...]
 
-Presets are `configs/pipeline/<preset>.yaml` (smoke, lite, paper); any field can be overridden with the
-draccus flags of `PipelineConfig` (a field that does not exist is refused). Rerun the same command to
-resume: finished stages are skipped, a killed stage is continued where it can be (demo collection, a training
-from its last checkpoint) or redone, and a changed stage reruns with everything after it. Results:
-`<output_dir>/results/` (`<task>.json`, `table.md`, plots, videos), written as each #fc finishes (and as
-each extra training seed's evaluations do, `--train.extra_seeds=[2000]`).
+Presets are `lerobot_ivmc/pipeline/presets/<preset>.yaml` (smoke, lite, paper; shipped with the package);
+any field can be overridden with the draccus flags of `PipelineConfig` (a field that does not exist is
+refused). Rerun the same command to resume: finished stages are skipped, a killed stage is continued where
+it can be (demo collection, a training from its last checkpoint) or redone, and a changed stage reruns with
+everything after it. Results: `<output_dir>/results/` (`<task>.json`, `table.md`, plots, videos), written as
+each #fc finishes (and as each extra training seed's evaluations do, `--train.extra_seeds=[2000]`).
 """
 
 from __future__ import annotations
