@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import pytest
 import torch
@@ -55,6 +56,15 @@ def test_dataset_size_scales_regularisers() -> None:
     head = BVMCPolicy(config).net.head
     assert head.weight_reg == pytest.approx(0.1**2 / 1000)
     assert head.dropout_reg == pytest.approx(2 / 1000)
+
+
+def test_n_from_the_dataset_metadata_says_how_to_set_it_for_a_subset(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    # Plain lerobot-train passes the whole dataset's metadata, also when --dataset.episodes picks a subset.
+    policy = BVMCPolicy(make_config(dataset_size=None), dataset_meta=SimpleNamespace(total_frames=600))
+    assert policy.config.dataset_size == 600
+    assert "--policy.dataset_size" in caplog.text and "lerobot-ivmc-train" in caplog.text
 
 
 def test_dropout_probabilities_move_during_training() -> None:

@@ -107,6 +107,12 @@ class BVMCPolicy(VMCPolicy):
             total = getattr(dataset_meta, "total_frames", None)
             if total:
                 config.dataset_size = int(total)
+                logger.warning(
+                    "Concrete dropout's N = %d, the whole dataset's frames. Training on a subset "
+                    "(--dataset.episodes)? Pass --policy.dataset_size=<its frames>, or train with "
+                    "lerobot-ivmc-train, which sets it.",
+                    config.dataset_size,
+                )
             else:
                 logger.warning("dataset_size not set and no dataset given: using N=%d.", DEFAULT_DATASET_SIZE)
                 config.dataset_size = DEFAULT_DATASET_SIZE
