@@ -9,12 +9,12 @@ fields of `lerobot-ivmc-train`; `foresight` is `lerobot-ivmc-foresight`'s `--for
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from lerobot_ivmc.datasets.record_config import RecordDemosConfig
 from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, TASKS
-from lerobot_ivmc.policies.vmc.configuration_vmc import TRAINING_MODES
+from lerobot_ivmc.policies.vmc.configuration_vmc import VMCConfig
 from lerobot_ivmc.recovery.foresight_training import ForesightConfig
 from lerobot_ivmc.scripts.pick_threshold import THRESHOLD_METHODS
 
@@ -40,6 +40,10 @@ class TrainPolicyConfig:
     goal_head: bool = False
     image_shift_pad: int | None = None
     optimizer_lr: float | None = None
+
+    def given(self) -> dict:
+        """The fields passed to the policies (unset ones left out)."""
+        return {name: value for name, value in asdict(self).items() if value is not None}
 
 
 @dataclass
@@ -213,25 +217,20 @@ class PipelineConfig:
     def validate_stage_values(self) -> None:
         """Refuse values a later stage would refuse, before hours of earlier stages are spent."""
         policy = self.train.policy
-        if policy.training_mode not in TRAINING_MODES:
-            raise ValueError(
-                f"--train.policy.training_mode must be one of {TRAINING_MODES}, got {policy.training_mode!r}."
-            )
         if not 1 <= policy.chunk_length <= DEMO_EPISODE_STEPS:
             raise ValueError(
                 f"--train.policy.chunk_length must be in [1, {DEMO_EPISODE_STEPS}] (the demos' length), got "
                 f"{policy.chunk_length}."
             )
-        if policy.goal_head and (
-            policy.training_mode != "sequence" or policy.chunk_length != DEMO_EPISODE_STEPS
-        ):
+        # The policy config's own checks (training mode, shift, ...), on the fields the trainings will get.
+        try:
+            VMCConfig(device="cpu", **policy.given())
+        except ValueError as error:
+            raise ValueError(f"--train.policy.{error}") from error
+        if policy.goal_head and policy.chunk_length != DEMO_EPISODE_STEPS:  # (sequence mode: checked above)
             raise ValueError(
                 "--train.policy.goal_head=true needs whole demos: --train.policy.training_mode=sequence and "
                 f"--train.policy.chunk_length={DEMO_EPISODE_STEPS}."
-            )
-        if policy.image_shift_pad is not None and policy.image_shift_pad < 0:
-            raise ValueError(
-                f"--train.policy.image_shift_pad must be >= 0 pixels, got {policy.image_shift_pad}."
             )
         if policy.optimizer_lr is not None and not policy.optimizer_lr > 0:
             raise ValueError(f"--train.policy.optimizer_lr must be positive, got {policy.optimizer_lr}.")

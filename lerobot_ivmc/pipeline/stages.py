@@ -261,7 +261,7 @@ def train_stages(
                     f"--policy.type={policy_type}",
                     "--policy.device=cpu",
                     f"--policy.num_fc_layers={fc}",
-                    *flags("policy.", {k: v for k, v in asdict(t.policy).items() if v is not None}),
+                    *flags("policy.", t.policy.given()),
                     f"--dataset.repo_id={repo_id}",
                     f"--dataset.root={data}",
                     *flags(
