@@ -6,14 +6,16 @@ policy's delta indices on the LeRobotDataset, the in-memory `FrameCache`, a shuf
 episode-aware sampler for chunks, so they start only where they fit), the policy's pre-processor, forward,
 backward, gradient clipping and an Adam step. Modes run in interleaved rounds (so a busy machine slows all
 of them alike) and the median round rate is reported. `--bf16` adds sequence training under bf16 autocast
-(what `ACCELERATE_MIXED_PRECISION=bf16 lerobot-ivmc-train ...` runs).
+(what `ACCELERATE_MIXED_PRECISION=bf16 lerobot-ivmc-train ...` runs). `--zero-chunk-memory` adds sequence
+training with `chunk_memory="zero"`, to price the stored states of chunks shorter than the demos (the
+default `"stored"` recomputes and keeps each frame's LSTM state).
 
 The goal of the sequence training: at least 3x the window's supervised steps per second.
 
 Usage:
     python benchmarks/bench_training.py --root <data>/pp_dart --repo-id local/pp_dart [--episodes 200]
         [--threads 2] [--rounds 3] [--steps-per-round 20] [--window-batch 32] [--sequence-batch 4]
-        [--chunk-length 100] [--bf16]
+        [--chunk-length 100] [--bf16] [--zero-chunk-memory]
 """
 
 from __future__ import annotations
@@ -122,6 +124,11 @@ def main() -> None:
     parser.add_argument("--sequence-batch", type=int, default=4)
     parser.add_argument("--chunk-length", type=int, default=100)
     parser.add_argument("--bf16", action="store_true", help="also time sequence training under bf16 autocast")
+    parser.add_argument(
+        "--zero-chunk-memory",
+        action="store_true",
+        help="also time sequence training whose chunks start from zero memory (chunk_memory='zero')",
+    )
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     torch.manual_seed(0)
@@ -135,6 +142,9 @@ def main() -> None:
     ]
     if args.bf16:
         modes.append(Mode("sequence_bf16", BVMCConfig(device="cpu", **sequence), args.sequence_batch, True))
+    if args.zero_chunk_memory:
+        zero = BVMCConfig(device="cpu", chunk_memory="zero", **sequence)
+        modes.append(Mode("sequence_zero_mem", zero, args.sequence_batch))
     trainers = [Trainer(mode, meta, args.root, episodes) for mode in modes]
     for trainer in trainers:
         for _ in range(args.warmup_steps):

@@ -39,7 +39,7 @@ def chunk_batch(batch_size: int = 3, length: int = 12, seed: int = 0) -> dict[st
 
 def sequence_policy(cls: type[VMCPolicy] = VMCPolicy, **kwargs) -> VMCPolicy:
     torch.manual_seed(0)
-    return cls(make_config(cls.config_class, training_mode="sequence", chunk_length=12, **kwargs))
+    return cls(make_config(cls.config_class, **{"training_mode": "sequence", "chunk_length": 12, **kwargs}))
 
 
 def test_sequence_config_asks_lerobot_for_chunks_and_rolls_out_with_carried_memory() -> None:
@@ -83,6 +83,102 @@ def test_chunk_loss_equals_a_step_by_step_rollout_from_reset_with_carried_memory
     outputs = [torch.stack([step[i] for step in steps], dim=1)[real] for i in range(4)]
     expected = sum(supervised_losses(outputs, batch[ACTION][real], batch[OBS_ENV_STATE][real]).values())
     torch.testing.assert_close(loss.detach(), expected, rtol=1e-5, atol=1e-6)
+
+
+def episode_chunks(length: int = 6, seed: int = 0) -> tuple[dict[str, torch.Tensor], ...]:
+    """Two episodes of 2 * `length` frames (absolute indices 0.. and 2 * length..), cut into two chunks
+    each: the batch of both first chunks, then the batch of both second chunks (LeRobot's `index` is the
+    absolute index of a chunk's first frame)."""
+    whole = chunk_batch(batch_size=2, length=2 * length, seed=seed)
+    del whole[f"{ACTION}_is_pad"], whole[f"{OBS_STATE}_is_pad"]
+    first, second = (
+        {k: v[:, part] for k, v in whole.items()} for part in (slice(0, length), slice(length, None))
+    )
+    episodes = torch.tensor([0, 1])
+    first.update(index=torch.tensor([0, 2 * length]), episode_index=episodes)
+    second.update(index=torch.tensor([length, 3 * length]), episode_index=episodes)
+    return whole, first, second
+
+
+def rollout_loss(policy: VMCPolicy, whole: dict[str, torch.Tensor], frames: slice) -> torch.Tensor:
+    """The supervised loss on `frames` of a step-by-step rollout from `reset()` over the whole episodes."""
+    policy.reset()
+    steps = []
+    with torch.no_grad():
+        for t in range(whole[IMAGE_KEY].shape[1]):
+            obs = {IMAGE_KEY: whole[IMAGE_KEY][:, t], OBS_STATE: whole[OBS_STATE][:, t]}
+            steps.append(policy.net.decode(policy.step_embedding(obs), stochastic=False))
+    outputs = [torch.stack([step[i] for step in steps], dim=1)[:, frames].flatten(0, 1) for i in range(4)]
+    labels = (whole[ACTION][:, frames].flatten(0, 1), whole[OBS_ENV_STATE][:, frames].flatten(0, 1))
+    return sum(supervised_losses(outputs, *labels).values())
+
+
+def test_a_chunk_mid_episode_starts_from_the_stored_state_of_the_frame_before_it() -> None:
+    """Truncated back-propagation with stored states: the second half of each episode, trained after the
+    first, has the same loss as a rollout carried from the episode's start; from zero memory it does not."""
+    whole, first, second = episode_chunks()
+    policy = sequence_policy(image_shift_pad=0, chunk_length=6)
+    assert policy.config.chunk_memory == "stored"
+    policy.forward(first)
+    loss, _ = policy.forward(second)
+    loss.backward()
+    expected = rollout_loss(policy, whole, slice(6, None))
+    torch.testing.assert_close(loss.detach(), expected, rtol=1e-5, atol=1e-6)
+    assert len(policy.stored_states) == 2 * 12
+
+    zero = sequence_policy(image_shift_pad=0, chunk_length=6, chunk_memory="zero")
+    zero.forward(first)
+    zero_loss, _ = zero.forward(second)
+    assert len(zero.stored_states) == 0
+    assert not torch.allclose(zero_loss.detach(), expected, rtol=1e-5, atol=1e-6)
+
+
+def test_stored_states_never_cross_episodes_and_stay_out_of_checkpoints(tmp_path: Path) -> None:
+    """A chunk whose previous frame belongs to another episode, or was never trained on, starts from zero
+    memory; the stored states are training state, not weights."""
+    whole, first, second = episode_chunks()
+    policy = sequence_policy(image_shift_pad=0, chunk_length=6)
+    policy.forward(second)  # frames 6..11 of episode 0, 18..23 of episode 1: nothing stored before them
+    zero = sequence_policy(image_shift_pad=0, chunk_length=6, chunk_memory="zero")
+    torch.testing.assert_close(policy.forward(second)[0], zero.forward(second)[0])
+    # Episode 1's first chunk starts at index 12, right after episode 0's last (stored) frame 11.
+    start_of_episode_1 = {k: v[1:] for k, v in first.items()}
+    torch.testing.assert_close(
+        policy.forward(start_of_episode_1)[0],
+        rollout_loss(policy, {k: v[1:] for k, v in whole.items()}, slice(0, 6)),
+    )
+    policy.save_pretrained(tmp_path)
+    reloaded = VMCPolicy.from_pretrained(tmp_path)
+    assert len(reloaded.stored_states) == 0
+    assert set(reloaded.state_dict()) == set(zero.state_dict())
+
+
+def test_lerobot_batches_carry_what_stored_chunk_memory_needs(tiny_dataset: Path) -> None:
+    """Through LeRobot's own sampler, dataloader and preprocessor (as `lerobot-train` feeds the policy), the
+    chunks' `index` and `episode_index` reach `forward`: one epoch stores a state for every frame."""
+    from lerobot.datasets.sampler import EpisodeAwareSampler
+    from lerobot.policies.factory import make_pre_post_processors
+
+    config = make_config(VMCConfig, training_mode="sequence", chunk_length=10)
+    meta = LeRobotDatasetMetadata(TINY_REPO_ID, root=tiny_dataset)
+    dataset = FrameCache(
+        LeRobotDataset(
+            TINY_REPO_ID, root=tiny_dataset, delta_timestamps=resolve_delta_timestamps(config, meta)
+        ),
+        absolute_indices=True,
+    )
+    sampler = EpisodeAwareSampler(
+        meta.episodes["dataset_from_index"],
+        meta.episodes["dataset_to_index"],
+        drop_n_last_frames=config.drop_n_last_frames,
+        shuffle=True,
+    )
+    preprocessor, _ = make_pre_post_processors(config, dataset_stats=meta.stats)
+    policy = VMCPolicy(config, dataset_meta=meta)
+    with torch.no_grad():
+        for batch in torch.utils.data.DataLoader(dataset, batch_size=8, sampler=sampler):
+            policy.forward(preprocessor(batch))
+    assert len(policy.stored_states) == meta.total_frames
 
 
 def test_bf16_autocast_trains_on_any_cpu_close_to_fp32() -> None:
@@ -132,8 +228,12 @@ def test_chunks_from_the_dataset_stop_at_their_episode_end(tiny_dataset: Path) -
     with torch.no_grad():
         outputs_alone = policy._sequence_outputs(alone)[0]
         outputs_pair = policy._sequence_outputs(pair)[0]
-    for single, batched in zip(outputs_alone, outputs_pair, strict=True):
+        # Again, now that the state of episode 0's last frame is stored: it must not leak into episode 1.
+        outputs_again = policy._sequence_outputs(pair)[0]
+    assert len(policy.stored_states) == 5 + 10
+    for single, batched, again in zip(outputs_alone, outputs_pair, outputs_again, strict=True):
         torch.testing.assert_close(batched[5:], single)  # 5 real frames of episode 0 come first
+        torch.testing.assert_close(again[5:], single)
 
 
 def test_bad_chunk_lengths_and_padding_are_refused(tiny_dataset: Path) -> None:
@@ -141,6 +241,8 @@ def test_bad_chunk_lengths_and_padding_are_refused(tiny_dataset: Path) -> None:
         make_config(VMCConfig, training_mode="sequence", chunk_length=0)
     with pytest.raises(ValueError, match="training_mode must be one of"):
         make_config(VMCConfig, training_mode="episodes")
+    with pytest.raises(ValueError, match="chunk_memory must be one of"):
+        make_config(VMCConfig, training_mode="sequence", chunk_memory="carried")
     meta = LeRobotDatasetMetadata(TINY_REPO_ID, root=tiny_dataset)
     with pytest.raises(ValueError, match=r"exceeds the shortest episode.*at most 30"):
         VMCPolicy(make_config(VMCConfig, training_mode="sequence", chunk_length=31), dataset_meta=meta)

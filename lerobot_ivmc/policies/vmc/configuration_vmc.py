@@ -17,6 +17,7 @@ ACTION_DIM = DELTA_EE_DIM + 1
 AUX_DIM = 6
 ROLLOUT_MEMORY_MODES = ("trajectory", "window")
 TRAINING_MODES = ("sequence", "window")
+CHUNK_MEMORY_MODES = ("stored", "zero")
 # Gripper commands close / no-op / open; class index = command + 1.
 GRIPPER_COMMANDS = (-1.0, 0.0, 1.0)
 
@@ -39,7 +40,7 @@ class VMCConfig(PreTrainedConfig):
         num_fc_layers: #fc, fully connected layers after the LSTM (the paper: 1 or 2).
         training_mode: what one training sample is. "sequence": a chunk of `chunk_length` consecutive frames
             of one demo that fits inside the episode (with the default, a whole 100-step demo); the LSTM
-            runs over the chunk from zero memory at its first frame (with whole episodes: carried from the
+            runs over the chunk from the memory `chunk_memory` says (with whole episodes: from zero at the
             episode start, as at rollout), each frame goes through the CNN once, and every frame's action is
             a label. "window": the K frames up to a frame, the LSTM from zero memory over them, the last
             frame's action the only label (each frame goes through the CNN about K times per epoch).
@@ -47,6 +48,13 @@ class VMCConfig(PreTrainedConfig):
             where they fit (`drop_n_last_frames`, LeRobot's episode-aware sampler): with chunk_length equal
             to the demo length every frame weighs the same. (Chunks from any frame, padded past the episode's
             end, weigh frame t by t + 1: the first steps of an episode were all but never learned.)
+        chunk_memory: the memory a sequence chunk that starts mid-episode (chunks shorter than the demos)
+            starts from. "stored": truncated back-propagation through time with stored states (R2D2): the
+            LSTM state (h, c) the frame before the chunk was left in by the last training pass over it,
+            detached, so the memory reaches back to the episode's start as at rollout while gradients stop
+            at the chunk's start; zeros at an episode's first frame and for frames not yet trained on. Needs
+            the batch's `index` and `episode_index` (LeRobot's datasets give them). "zero": zero memory at
+            every chunk's start. Whole-demo chunks start at their episode's start: both are the same there.
         rollout_memory: how the LSTM memory runs at rollout; None follows `training_mode`. "trajectory" (the
             paper): one LSTM step per control step, (h, c) carried along the whole episode and cleared by
             `reset()`, as in sequence training. "window": the memory is the state representations of the last
@@ -92,6 +100,7 @@ class VMCConfig(PreTrainedConfig):
     # Training samples and rollout memory (see the docstring).
     training_mode: str = "window"
     chunk_length: int = 100
+    chunk_memory: str = "stored"
     rollout_memory: str | None = None
     goal_head: bool = False
 
@@ -131,6 +140,8 @@ class VMCConfig(PreTrainedConfig):
                 f"chunk_length must be >= 1 frame (at most a demo's length, e.g. 100), "
                 f"got {self.chunk_length}."
             )
+        if self.chunk_memory not in CHUNK_MEMORY_MODES:
+            raise ValueError(f"chunk_memory must be one of {CHUNK_MEMORY_MODES}, got {self.chunk_memory!r}.")
         if self.goal_head and self.training_mode != "sequence":
             raise ValueError(
                 "goal_head needs whole demos in each sample (the object's position at the demo's end is its "

@@ -17,6 +17,7 @@ from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
 from torch import Tensor, nn
 
 from lerobot_ivmc.policies.vmc.configuration_vmc import AUX_DIM, DELTA_EE_DIM, GRIPPER_COMMANDS, VMCConfig
+from lerobot_ivmc.policies.vmc.stored_memory import StoredLSTMStates, lstm_cell_states
 
 NUM_GRIPPER_CLASSES = len(GRIPPER_COMMANDS)
 # One position (x, y, z) of `observation.environment_state`: the end effector's, then the object's.
@@ -117,14 +118,15 @@ class VisuomotorNet(nn.Module):
                 h, c = torch.where(keep, h, h_new), torch.where(keep, c, c_new)
         return h
 
-    def unroll_sequence(self, s: Tensor) -> Tensor:
-        """Run the LSTM over a chunk from zero memory, carrying (h, c) from step to step.
+    def unroll_sequence(self, s: Tensor, memory: Memory | None = None) -> Tensor:
+        """Run the LSTM over a chunk, carrying (h, c) from step to step.
 
         The same cell as `step`, as one fused pass (its weights shared): the input projection of all steps
         is one matrix product.
 
         Args:
             s: (B, L, D_s) state representations.
+            memory: the (h, c) the chunk starts from, each (B, lstm_dim); None for zeros.
 
         Returns:
             (B, L, lstm_dim) embeddings e_t of every step.
@@ -138,9 +140,12 @@ class VisuomotorNet(nn.Module):
         with torch.autocast("cpu", enabled=False) if fp32_lstm else contextlib.nullcontext():
             if fp32_lstm:
                 s, weights = s.float(), [w.float() for w in weights]
-            h0 = s.new_zeros(1, s.shape[0], cell.hidden_size)
+            if memory is None:
+                h0 = c0 = s.new_zeros(1, s.shape[0], cell.hidden_size)
+            else:
+                h0, c0 = (m.to(s.dtype)[None] for m in memory)
             # torch.lstm(input, hx, params, biases, num_layers, dropout, train, bidirectional, batch_first)
-            return torch.lstm(s, (h0, h0), weights, True, 1, 0.0, self.training, False, True)[0]
+            return torch.lstm(s, (h0, c0), weights, True, 1, 0.0, self.training, False, True)[0]
 
     def decode(
         self, e: Tensor, stochastic: bool, noise: list[Tensor] | None = None, with_goal: bool = False
@@ -228,6 +233,8 @@ class VMCPolicy(PreTrainedPolicy):
         state_dim = config.input_features[OBS_STATE].shape[0]
         self.net = VisuomotorNet(config, image_shape, state_dim, self._make_head(config, dataset_meta))
         self._memory: Memory | None = None
+        # Sequence training, `chunk_memory="stored"`: the state each demo frame was last left in.
+        self.stored_states = StoredLSTMStates(config.lstm_dim)
 
     def _make_head(self, config: VMCConfig, dataset_meta=None) -> nn.Module:
         """The layers after the LSTM; Bayesian VMC overrides this."""
@@ -306,7 +313,8 @@ class VMCPolicy(PreTrainedPolicy):
     def _sequence_outputs(self, batch: dict[str, Tensor]) -> tuple[tuple[Tensor, ...], Tensor, Tensor]:
         """Decoded outputs (each (N, ...)) on the N real frames of the chunks, with their actions and targets.
 
-        Only the real frames go through the CNN (once each); the LSTM runs over the whole chunk.
+        Only the real frames go through the CNN (once each); the LSTM runs over the whole chunk, from the
+        memory `chunk_memory` says (stored: the state the frame before the chunk was last left in).
         """
         images, state, aux, action = (
             batch[self.image_key],
@@ -325,12 +333,27 @@ class VMCPolicy(PreTrainedPolicy):
         frames = random_shift(images[real], self.config.image_shift_pad, group)
         s_real = self.net.encode(frames, state[real])
         s = s_real.new_zeros(*real.shape, s_real.shape[-1]).masked_scatter(real[..., None], s_real)
-        e = self.net.unroll_sequence(s)[real]
+        e = self._unroll_chunks(s, real, batch)[real]
         targets = aux
         if self.config.goal_head:
             targets = torch.cat([aux, demo_end_object_position(aux, real)], dim=-1)
         outputs = self.net.decode(e, stochastic=True, with_goal=self.config.goal_head)
         return outputs, action[real], targets[real]
+
+    def _unroll_chunks(self, s: Tensor, real: Tensor, batch: dict[str, Tensor]) -> Tensor:
+        """The LSTM over (B, L, D_s) chunks -> (B, L, lstm_dim); with stored chunk memory, each chunk starts
+        from the stored state of the frame before it and leaves its frames' states for later chunks."""
+        positions = batch.get("index"), batch.get("episode_index")
+        if self.config.chunk_memory != "stored" or positions[0] is None or positions[1] is None:
+            return self.net.unroll_sequence(s)
+        first_index, episode_index = (p.reshape(-1).long() for p in positions)
+        memory = self.stored_states.initial(first_index, episode_index, s)
+        e = self.net.unroll_sequence(s, memory)
+        cells = lstm_cell_states(self.net.lstm, s, e, *memory)
+        frame_index = first_index[:, None] + torch.arange(s.shape[1], device=s.device)
+        episodes = episode_index[:, None].expand_as(frame_index)
+        self.stored_states.store(frame_index[real], episodes[real], e[real], cells[real])
+        return e
 
     def _current_obs(self, batch: dict[str, Tensor]) -> tuple[Tensor, Tensor]:
         images, state = batch[self.image_key], batch[OBS_STATE]
