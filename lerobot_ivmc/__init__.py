@@ -4,8 +4,12 @@ Importing the package registers its LeRobot extensions: the ``ivmc`` env config 
 the ``vmc`` / ``bvmc`` policy types.
 """
 
-from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
-from lerobot_ivmc.policies import BVMCConfig, VMCConfig
+from lerobot_ivmc.draccus_startup import cache_draccus_class_sources
+
+cache_draccus_class_sources()
+
+from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv  # noqa: E402
+from lerobot_ivmc.policies import BVMCConfig, VMCConfig  # noqa: E402
 
 __all__ = ["BVMCConfig", "IvmcEnv", "VMCConfig"]
 __version__ = "0.1.0"

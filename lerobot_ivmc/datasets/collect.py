@@ -130,8 +130,14 @@ class CollectConfig:
 
     def spec(self) -> dict:
         """What the dataset in `root` must match to be resumed or reused (the episode count aside)."""
-        # Noise-free collections keep the spec they had before noise injection existed.
-        noise = {"action_noise": self.action_noise} if self.action_noise > 0 else {}
+        # Noise-free collections keep the spec they had before noise injection existed. Noisy ones name the
+        # expert's behaviour after its last waypoint (it holds that pose against the noise; before, it
+        # stood still and let the noise random-walk the arm), so the two kinds never mix in one dataset.
+        noise = (
+            {"action_noise": self.action_noise, "expert_after_last_waypoint": "hold"}
+            if self.action_noise > 0
+            else {}
+        )
         return staging.normalise(
             {
                 **noise,

@@ -70,13 +70,18 @@ class WaypointExpert:
 
     @property
     def done(self) -> bool:
-        """All waypoints have been reached (the expert then holds still)."""
+        """All waypoints have been reached (the expert then holds the last one's position)."""
         return self._index >= len(self._waypoints)
 
     def act(self) -> np.ndarray:
-        """The next action [dx, dy, dz, gripper] (float32, dx..dz in action units of 5 cm)."""
+        """The next action [dx, dy, dz, gripper] (float32, dx..dz in action units of 5 cm).
+
+        Once done, the expert holds its last waypoint: still while the grip point stays within that
+        waypoint's tolerance, back toward it when pushed further (by injected action noise), so the demo's
+        last frames show how to hold the final pose instead of a random walk labelled "stay still".
+        """
         if self.done:
-            return np.array([0.0, 0.0, 0.0, GRIPPER_NOOP], dtype=np.float32)
+            return self._hold()
         waypoint = self._waypoints[self._index]
         if self._goal is None:
             low, high = self.env.grip_workspace
@@ -97,15 +102,31 @@ class WaypointExpert:
             # state completed the waypoint (no frame of the old waypoint's command after it is done).
             self._advance()
             return self.act()
+        return self._toward(error, waypoint.speed, waypoint.gripper)
+
+    def _toward(self, error: np.ndarray, speed: float, gripper: float) -> np.ndarray:
+        """The proportional step along `error` (metres), at most `speed` long, with a gripper command."""
         step = self.gain * error
         norm = np.linalg.norm(step)
-        if norm > waypoint.speed:
-            step *= waypoint.speed / norm
-        return np.array([*(step / POSITION_SCALE), waypoint.gripper], dtype=np.float32)
+        if norm > speed:
+            step *= speed / norm
+        return np.array([*(step / POSITION_SCALE), gripper], dtype=np.float32)
+
+    def _hold(self) -> np.ndarray:
+        """After the last waypoint: no motion within its tolerance, back toward it beyond."""
+        still = np.array([0.0, 0.0, 0.0, GRIPPER_NOOP], dtype=np.float32)
+        if self._goal is None:  # nothing to hold: an empty plan
+            return still
+        last = self._waypoints[-1]
+        error = self._goal - self.env.grip_position
+        if np.linalg.norm(error) <= last.tolerance:
+            return still
+        return self._toward(error, last.speed, GRIPPER_NOOP)
 
     def _advance(self) -> None:
         self._index += 1
-        self._goal = None
+        if not self.done:  # the last waypoint's goal stays: `_hold` keeps the grip point there
+            self._goal = None
         self._steps_on_waypoint = 0
         self._held = 0
 

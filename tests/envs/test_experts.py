@@ -55,3 +55,39 @@ def test_expert_lifts_on_the_first_frame_the_grasp_is_visibly_complete(task):
                 checked += 1
                 assert action[2] > 0.3, f"{task} seed {seed}: settled grasp labelled {action}"
         assert checked >= 1  # the grasp was seen
+
+
+@pytest.mark.parametrize("task", TASKS)
+def test_after_its_last_waypoint_the_expert_holds_that_pose_against_action_noise(task):
+    """With injected action noise (DART demos), the finished expert steers back to its last waypoint instead
+    of labelling a random walk "stay still"; without noise it stays still."""
+    from lerobot_ivmc.datasets.rollout import ActionNoise
+
+    env = make_task_env(task, image_size=32, terminate_on_success=False)
+    expert = make_expert(env)
+    for noise in (0.0, 0.15):
+        checked = 0
+        for seed in range(4):
+            grips, actions, done = [], [], []
+
+            def on_step(observation, action, info):
+                grips.append(env.grip_position.copy())
+                actions.append(action)
+                done.append(expert.done)
+
+            perturb = ActionNoise(noise, seed) if noise else None
+            run_expert_episode(env, expert, seed=seed, on_step=on_step, perturb=perturb)
+            first = done.index(True)
+            if first > DEMO_EPISODE_STEPS - 10:  # finished too late to show a hold
+                continue
+            checked += 1
+            away = np.linalg.norm(np.stack(grips[first:]) - grips[first], axis=1)
+            if noise == 0:
+                assert np.all(np.stack(actions[first:])[:, :3] == 0) and away.max() < 0.01
+            else:
+                # Noise steps of 0.75 cm per axis random-walk ~5 cm in 50 steps; the hold stays near the goal.
+                assert np.abs(np.stack(actions[first:])[:, :3]).max() > 0, "it corrects the noise"
+                from_goal = np.linalg.norm(np.stack(grips[first:]) - expert._goal, axis=1)
+                assert np.median(from_goal) < 0.025, from_goal
+        assert checked >= 2
+    env.close()
