@@ -59,7 +59,7 @@ from lerobot_ivmc.datasets.features import (
 )
 from lerobot_ivmc.datasets.root_lock import LOCK_FILE, RootLock
 from lerobot_ivmc.datasets.verify import dataset_problems
-from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, TASK_ENVS, TASKS, check_task, gym_id
+from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, MAX_EPISODE_STEPS, TASK_ENVS, TASKS, check_task, gym_id
 from lerobot_ivmc.envs.fetch_env import check_image_size
 from lerobot_ivmc.envs.scenes import SPLITS
 
@@ -87,6 +87,9 @@ class CollectConfig:
         seed: base seed from which every attempt's scene seed is derived.
         action_noise: std (action units, 1 = 5 cm) of Gaussian noise on the executed delta-EE command while
             the recorded action stays the expert's (DART); 0 records the expert's own trajectories.
+        episode_steps: steps of every demo, 100 (4 s at 25 Hz) to 200 (the rollouts' limit). Success does
+            not end a demo: once done, the expert holds its final pose, so longer demos show the policy's
+            carried memory older states than the 100-step demos.
         push_to_hub: publish the finished dataset with `LeRobotDataset.push_to_hub`.
         private: make the hub repository private.
         progress: show a progress bar.
@@ -102,6 +105,7 @@ class CollectConfig:
     num_workers: int = 2
     seed: int = 0
     action_noise: float = 0.0
+    episode_steps: int = DEMO_EPISODE_STEPS
     push_to_hub: bool = False
     private: bool = False
     progress: bool = True
@@ -117,6 +121,12 @@ class CollectConfig:
             raise ValueError(f"num_workers must be >= 0, got {self.num_workers}.")
         if self.seed < 0:
             raise ValueError(f"seed must be >= 0, got {self.seed}.")
+        if not DEMO_EPISODE_STEPS <= self.episode_steps <= MAX_EPISODE_STEPS:
+            raise ValueError(
+                f"episode_steps must be in [{DEMO_EPISODE_STEPS}, {MAX_EPISODE_STEPS}] (the experts need "
+                f"up to {DEMO_EPISODE_STEPS} steps; rollouts end at {MAX_EPISODE_STEPS}), "
+                f"got {self.episode_steps}."
+            )
         if not 0.0 <= self.action_noise <= 1.0:
             raise ValueError(f"action_noise must be in [0, 1] action units, got {self.action_noise}.")
         self.root = Path(self.root) if self.root is not None else Path("data") / f"ivmc_{self.task}"
@@ -148,7 +158,7 @@ class CollectConfig:
                 "image_size": self.image_size,
                 "video": self.video,
                 "fps": DEMO_FPS,
-                "episode_steps": DEMO_EPISODE_STEPS,
+                "episode_steps": self.episode_steps,
                 "features": demo_features(self.image_size, self.video),
             }
         )
@@ -334,7 +344,7 @@ def _plan(start: int, need: int, successes: dict, failures: set) -> list[int]:
 
 def _recorder_args(cfg: CollectConfig, episodes_dir: Path) -> tuple:
     """The arguments of `rollout.Recorder` (and of `rollout.init_worker`, which builds one per worker)."""
-    return (cfg.task, cfg.image_size, cfg.split, cfg.seed, episodes_dir, cfg.action_noise)
+    return (cfg.task, cfg.image_size, cfg.split, cfg.seed, episodes_dir, cfg.action_noise, cfg.episode_steps)
 
 
 def _make_pool(cfg: CollectConfig, episodes_dir: Path) -> multiprocessing.pool.Pool:
@@ -373,7 +383,7 @@ def _run_collection(cfg: CollectConfig, work: Path, summary: CollectSummary) -> 
         while len(assembler.episodes) < target and (next_attempt in successes or next_attempt in failures):
             if next_attempt in successes:
                 assembler.append(staging.read_episode(successes[next_attempt]))
-                frames = len(assembler.episodes) * DEMO_EPISODE_STEPS
+                frames = len(assembler.episodes) * cfg.episode_steps
                 bar.update(1)
                 bar.set_postfix(frames=frames, fps=f"{frames / (time.perf_counter() - start):.0f}")
             next_attempt += 1
@@ -435,7 +445,7 @@ def collect_demos(cfg: CollectConfig) -> CollectSummary:
     with RootLock(cfg.root):
         work = _prepare_root(cfg)
         if work is None:
-            problems = dataset_problems(cfg.root, cfg.num_episodes, DEMO_EPISODE_STEPS)
+            problems = dataset_problems(cfg.root, cfg.num_episodes, cfg.episode_steps)
             if problems:
                 raise staging.CollectionError(
                     f"{cfg.root} holds a damaged dataset, not the {cfg.num_episodes} episodes it should: "
@@ -462,14 +472,14 @@ def collect_demos(cfg: CollectConfig) -> CollectSummary:
                 "episodes": assembler.episodes,
             }
             staging.write_json(build / staging.COLLECTION_INFO_PATH, collection)
-            problems = dataset_problems(build, cfg.num_episodes, DEMO_EPISODE_STEPS)
+            problems = dataset_problems(build, cfg.num_episodes, cfg.episode_steps)
             if problems:
                 raise staging.CollectionError(
                     f"The assembled dataset failed its check: {'; '.join(problems)}. It was not published; "
                     f"the staged episodes are kept in {work / staging.EPISODES_DIR}."
                 )
             staging.publish(work, cfg.root)
-    summary.num_frames = cfg.num_episodes * DEMO_EPISODE_STEPS
+    summary.num_frames = cfg.num_episodes * cfg.episode_steps
     if cfg.push_to_hub:  # a published root is only read, so other runs may open it meanwhile
         push_dataset(cfg.root, cfg.repo_id, private=cfg.private)
         summary.pushed = True
@@ -499,6 +509,12 @@ def _parse_args(argv: list[str] | None) -> CollectConfig:
         type=float,
         default=0.0,
         help="std of noise on the executed delta-EE command, action units (DART); the label stays clean",
+    )
+    parser.add_argument(
+        "--episode-steps",
+        type=int,
+        default=DEMO_EPISODE_STEPS,
+        help=f"steps of every demo, {DEMO_EPISODE_STEPS} to {MAX_EPISODE_STEPS} (the expert holds its pose)",
     )
     parser.add_argument("--push-to-hub", action="store_true", help="publish with LeRobotDataset.push_to_hub")
     parser.add_argument("--private", action="store_true", help="make the hub repository private")

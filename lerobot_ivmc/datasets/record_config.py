@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from lerobot_ivmc.datasets.collect import CollectConfig
+from lerobot_ivmc.envs import DEMO_EPISODE_STEPS
 
 
 @dataclass
@@ -41,6 +42,7 @@ class DemoDatasetConfig:
         repo_id: dataset id; default ``local/ivmc_<task>`` (``<hub user>/<name>`` to push).
         root: local dataset folder; default ``data/ivmc_<task>``.
         num_episodes: successful demos the dataset must hold.
+        episode_steps: steps of every demo (100 to 200; the expert holds its final pose once done).
         video: store the camera as mp4 instead of PNG frames.
         push_to_hub: publish the finished dataset with `LeRobotDataset.push_to_hub`.
         private: make the hub repository private.
@@ -51,6 +53,7 @@ class DemoDatasetConfig:
     repo_id: str | None = None
     root: Path | None = None
     num_episodes: int = 0
+    episode_steps: int = DEMO_EPISODE_STEPS
     video: bool = False
     push_to_hub: bool = False
     private: bool = False
@@ -97,6 +100,7 @@ class RecordDemosConfig:
             num_workers=self.num_workers,
             seed=self.seed,
             action_noise=self.action_noise,
+            episode_steps=self.dataset.episode_steps,
             push_to_hub=self.dataset.push_to_hub,
             private=self.dataset.private,
             progress=self.progress,

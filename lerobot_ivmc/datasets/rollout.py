@@ -64,6 +64,7 @@ class Recorder:
         base_seed: the collection's `--seed`.
         episodes_dir: where finished attempts are staged.
         action_noise: std of the noise on the executed delta-EE command (`ActionNoise`); 0 for none.
+        episode_steps: steps of every demo (the expert holds its final pose once done).
     """
 
     task: str
@@ -72,9 +73,10 @@ class Recorder:
     base_seed: int
     episodes_dir: Path
     action_noise: float = 0.0
+    episode_steps: int = DEMO_EPISODE_STEPS
 
     def __post_init__(self) -> None:
-        # Demos always last DEMO_EPISODE_STEPS steps: success does not end them.
+        # Demos always last `episode_steps` steps: success does not end them.
         self.env: IvmcFetchEnv = make_task_env(
             self.task, image_size=self.image_size, split=self.split, terminate_on_success=False
         )
@@ -92,8 +94,10 @@ class Recorder:
             actions.append(action)
 
         perturb = ActionNoise(self.action_noise, seed) if self.action_noise > 0 else None
-        info = run_expert_episode(self.env, self.expert, seed=seed, on_step=on_step, perturb=perturb)
-        success = bool(info["is_success"]) and len(actions) == DEMO_EPISODE_STEPS
+        info = run_expert_episode(
+            self.env, self.expert, seed=seed, max_steps=self.episode_steps, on_step=on_step, perturb=perturb
+        )
+        success = bool(info["is_success"]) and len(actions) == self.episode_steps
         if not success:
             staging.write_failure(self.episodes_dir, attempt)
             return attempt, False
@@ -118,12 +122,20 @@ _worker_recorder: Recorder | None = None
 
 
 def init_worker(
-    task: str, image_size: int, split: str, base_seed: int, episodes_dir: Path, action_noise: float
+    task: str,
+    image_size: int,
+    split: str,
+    base_seed: int,
+    episodes_dir: Path,
+    action_noise: float,
+    episode_steps: int = DEMO_EPISODE_STEPS,
 ) -> None:
     """Pool initializer: build the worker's env once. Ctrl-C is left to the parent, which stops the pool."""
     global _worker_recorder
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    _worker_recorder = Recorder(task, image_size, split, base_seed, Path(episodes_dir), action_noise)
+    _worker_recorder = Recorder(
+        task, image_size, split, base_seed, Path(episodes_dir), action_noise, episode_steps
+    )
 
 
 def record_in_worker(attempt: int) -> tuple[int, bool]:

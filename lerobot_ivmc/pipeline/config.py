@@ -13,7 +13,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from lerobot_ivmc.datasets.record_config import RecordDemosConfig
-from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, TASKS
+from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, MAX_EPISODE_STEPS, TASKS
 from lerobot_ivmc.policies.vmc.configuration_vmc import VMCConfig
 from lerobot_ivmc.recovery.foresight_training import ForesightConfig
 from lerobot_ivmc.scripts.pick_threshold import THRESHOLD_METHODS
@@ -217,20 +217,26 @@ class PipelineConfig:
     def validate_stage_values(self) -> None:
         """Refuse values a later stage would refuse, before hours of earlier stages are spent."""
         policy = self.train.policy
-        if not 1 <= policy.chunk_length <= DEMO_EPISODE_STEPS:
+        demo_steps = self.collect.dataset.episode_steps
+        if not DEMO_EPISODE_STEPS <= demo_steps <= MAX_EPISODE_STEPS:
             raise ValueError(
-                f"--train.policy.chunk_length must be in [1, {DEMO_EPISODE_STEPS}] (the demos' length), got "
-                f"{policy.chunk_length}."
+                "--collect.dataset.episode_steps must be in "
+                f"[{DEMO_EPISODE_STEPS}, {MAX_EPISODE_STEPS}], got {demo_steps}."
+            )
+        if not 1 <= policy.chunk_length <= demo_steps:
+            raise ValueError(
+                f"--train.policy.chunk_length must be in [1, {demo_steps}] (the demos' length, "
+                f"--collect.dataset.episode_steps), got {policy.chunk_length}."
             )
         # The policy config's own checks (training mode, shift, ...), on the fields the trainings will get.
         try:
             VMCConfig(device="cpu", **policy.given())
         except ValueError as error:
             raise ValueError(f"--train.policy.{error}") from error
-        if policy.goal_head and policy.chunk_length != DEMO_EPISODE_STEPS:  # (sequence mode: checked above)
+        if policy.goal_head and policy.chunk_length != demo_steps:  # (sequence mode: checked above)
             raise ValueError(
                 "--train.policy.goal_head=true needs whole demos: --train.policy.training_mode=sequence and "
-                f"--train.policy.chunk_length={DEMO_EPISODE_STEPS}."
+                f"--train.policy.chunk_length={demo_steps} (--collect.dataset.episode_steps)."
             )
         if policy.optimizer_lr is not None and not policy.optimizer_lr > 0:
             raise ValueError(f"--train.policy.optimizer_lr must be positive, got {policy.optimizer_lr}.")

@@ -14,6 +14,7 @@ import sys
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from lerobot_ivmc.envs import DEMO_EPISODE_STEPS
 from lerobot_ivmc.evaluation.perception_check import RECORD_FILE as PERCEPTION_RECORD
 from lerobot_ivmc.pipeline.config import POLICY_TYPES, PipelineConfig
 from lerobot_ivmc.policies.vmc.modeling_vmc import cpu_has_native_bf16
@@ -99,6 +100,12 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
                 "push_to_hub": c.dataset.push_to_hub,
                 "private": c.dataset.private,
             },
+        ),
+        # Only when not the default, so the studies of 100-step demos keep their fingerprints.
+        *(
+            [f"--dataset.episode_steps={c.dataset.episode_steps}"]
+            if c.dataset.episode_steps != DEMO_EPISODE_STEPS
+            else []
         ),
         *flags("", {"num_workers": c.num_workers, "seed": c.seed, "action_noise": c.action_noise}),
         "--progress=false",

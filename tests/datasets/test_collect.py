@@ -141,6 +141,39 @@ def test_noisy_demos_label_the_expert_action_and_record_the_noisy_states(tmp_pat
     again.close()
 
 
+def test_longer_demos_hold_the_final_pose_to_the_last_frame(tmp_path, capsys):
+    """`--dataset.episode_steps=150`: every demo lasts 150 frames, the task still done on the last one, the
+    expert's labels after its last waypoint steering back against the noise (no drift labelled still)."""
+    root = tmp_path / "long"
+    assert (
+        main(
+            [
+                "--env.task=pick_reach",
+                "--env.image_size=32",
+                "--dataset.num_episodes=2",
+                "--dataset.episode_steps=150",
+                f"--dataset.root={root}",
+                "--num_workers=0",
+                "--action_noise=0.15",
+                "--progress=false",
+            ]
+        )
+        == 0
+    )
+    dataset = LeRobotDataset("local/ivmc_pick_reach", root=root)
+    assert dataset.meta.total_frames == 2 * 150 and list(dataset.meta.episodes["length"]) == [150, 150]
+    for episode in range(2):
+        arrays = _episode_arrays(dataset, episode)
+        late = arrays[ACTION_KEY][DEMO_EPISODE_STEPS:, :3]
+        assert np.abs(late).max() > 0, "the noise is corrected after the demo's usual end"
+        ee = arrays[ENV_STATE_KEY][:, :3]
+        # Held: the last 50 frames stay within a few cm of where frame 100 was.
+        assert np.linalg.norm(ee[DEMO_EPISODE_STEPS:] - ee[DEMO_EPISODE_STEPS], axis=1).max() < 0.05
+    for bad in (99, 201):
+        with pytest.raises(ValueError, match=r"episode_steps must be in \[100, 200\]"):
+            _config(tmp_path / "bad", episode_steps=bad)
+
+
 @pytest.mark.parametrize("action_noise", [-0.1, 1.5])
 def test_action_noise_outside_its_range_is_refused(tmp_path, action_noise):
     with pytest.raises(ValueError, match="action_noise"):
@@ -164,6 +197,7 @@ def test_another_spec_is_refused_and_nothing_is_touched(collected):
         (_config(collected.root, task=collected.task, num_episodes=3, video=True), "feature"),
         (_config(collected.root, task=collected.task, num_episodes=3, split="val"), "split"),
         (_config(collected.root, task=collected.task, num_episodes=3, action_noise=0.1), "action_noise"),
+        (_config(collected.root, task=collected.task, num_episodes=3, episode_steps=150), "episode_steps"),
         (_config(collected.root, task=collected.task, num_episodes=5), "already holds 3"),
     ]
     for cfg, message in cases:

@@ -70,7 +70,7 @@ def test_after_its_last_waypoint_the_expert_holds_that_pose_against_action_noise
         for seed in range(4):
             grips, actions, done = [], [], []
 
-            def on_step(observation, action, info):
+            def on_step(observation, action, info, grips=grips, actions=actions, done=done):
                 grips.append(env.grip_position.copy())
                 actions.append(action)
                 done.append(expert.done)

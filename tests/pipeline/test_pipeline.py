@@ -86,6 +86,19 @@ def test_presets_load_and_any_field_can_be_overridden(tmp_path: Path) -> None:
     for stage in build_stages(tuned):
         if stage.name.startswith("train_"):
             assert {"--policy.image_shift_pad=0", "--policy.optimizer_lr=0.0001"} <= set(stage.argv)
+    # Longer demos reach the collector, with whole-demo chunks to match; 100-step studies keep their commands.
+    assert not any("episode_steps" in a for a in stages["collect"].argv)
+    longer = parse_config(
+        [
+            "--task=push",
+            "--preset=lite",
+            "--collect.dataset.episode_steps=150",
+            "--train.policy.chunk_length=150",
+        ]
+    )
+    longer_stages = {s.name: s for s in build_stages(longer)}
+    assert "--dataset.episode_steps=150" in longer_stages["collect"].argv
+    assert "--policy.chunk_length=150" in longer_stages["train_bvmc_fc1"].argv
 
 
 def test_extra_training_seeds_add_stages_and_leave_the_study_s_own_untouched(tmp_path: Path) -> None:
@@ -159,6 +172,11 @@ def test_bad_input_is_refused_with_what_to_do(capsys: pytest.CaptureFixture) -> 
         ("--train.policy.training_mode=chunks", "--train.policy.training_mode must be one of"),
         ("--train.policy.chunk_length=101", "--train.policy.chunk_length must be in [1, 100]"),
         ("--train.policy.chunk_length=50", "goal_head=true needs whole demos"),
+        ("--collect.dataset.episode_steps=250", "--collect.dataset.episode_steps must be in [100, 200]"),
+        (
+            "--collect.dataset.episode_steps=150",
+            "--train.policy.chunk_length=150 (--collect.dataset.episode_steps)",
+        ),
         ("--train.policy.image_shift_pad=-2", "image_shift_pad must be >= 0"),
         ("--train.batch_size=0", "--train.batch_size must be positive"),
         ("--eval.batch_size=0", "--eval.batch_size must be positive"),
