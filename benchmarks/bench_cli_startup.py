@@ -13,14 +13,13 @@ from __future__ import annotations
 
 import inspect
 import time
-import types
 
 from draccus.argparsing import ArgumentParser
 from draccus.wrappers import docstring
 from lerobot.configs.train import TrainPipelineConfig
 
 import lerobot_ivmc  # noqa: F401  (registers the plugin's choices; installs the cache)
-from lerobot_ivmc.draccus_startup import cache_draccus_class_sources
+from lerobot_ivmc.draccus_startup import CachedSourceInspect, cache_draccus_class_sources
 from lerobot_ivmc.evaluation.eval_subtasks import IvmcEvalConfig
 from lerobot_ivmc.pipeline.config import PipelineConfig
 
@@ -36,7 +35,7 @@ def build_parsers() -> dict[str, float]:
     a command's start."""
     times = {}
     for name, config_class in CONFIGS.items():
-        if isinstance(docstring.inspect, types.SimpleNamespace):
+        if isinstance(docstring.inspect, CachedSourceInspect):
             docstring.inspect.getsource.cache_clear()
         start = time.perf_counter()
         ArgumentParser(config_class=config_class)
@@ -48,7 +47,7 @@ def main() -> None:
     docstring.inspect = inspect  # undo the import's cache: time the plain lookup first
     plain = build_parsers()
     cache_draccus_class_sources()
-    assert isinstance(docstring.inspect, types.SimpleNamespace)
+    assert isinstance(docstring.inspect, CachedSourceInspect)
     cached = build_parsers()
     print(f"{'command config':<24} {'plain [s]':>10} {'cached [s]':>11} {'speed-up':>9}")
     for name in CONFIGS:

@@ -8,11 +8,13 @@ from draccus.argparsing import ArgumentParser
 from draccus.wrappers import docstring
 
 import lerobot_ivmc  # noqa: F401  (installs the cache, as every command that imports the plugin)
-from lerobot_ivmc.draccus_startup import cache_draccus_class_sources
+from lerobot_ivmc.draccus_startup import CachedSourceInspect, cache_draccus_class_sources
 from lerobot_ivmc.evaluation.eval_subtasks import IvmcEvalConfig
 
 
 def test_each_config_class_source_is_read_once_and_the_help_is_unchanged() -> None:
+    assert isinstance(docstring.inspect, CachedSourceInspect), "importing the plugin installs the cache"
+    assert docstring.inspect.getmro is inspect.getmro  # the rest of `inspect` is the real module's
     getsource = docstring.inspect.getsource
     getsource.cache_clear()
     cached_help = ArgumentParser(config_class=IvmcEvalConfig).parser.format_help()

@@ -258,10 +258,23 @@ def _resume_hint(cfg: CollectConfig, spec: dict) -> str:
     args += f" --image-size {spec['image_size']}"
     args += " --video" * bool(spec.get("video"))
     args += f" --action-noise {spec['action_noise']}" if spec.get("action_noise") else ""
+    if spec.get("episode_steps", DEMO_EPISODE_STEPS) != DEMO_EPISODE_STEPS:
+        args += f" --episode-steps {spec['episode_steps']}"
+    drop = f"to drop it, remove {cfg.root / staging.WORK_DIR}."
+    if _made_by_the_drifting_expert(spec):
+        return (
+            "Its demos were recorded by the expert of before the final-pose hold, which no command of this "
+            f"version records: {drop}"
+        )
     return (
         f"To finish it, rerun with its arguments: lerobot-ivmc-collect --root {cfg.root} "
-        f"--num-episodes {cfg.num_episodes} {args}; to drop it, remove {cfg.root / staging.WORK_DIR}."
+        f"--num-episodes {cfg.num_episodes} {args}; {drop}"
     )
+
+
+def _made_by_the_drifting_expert(spec: dict) -> bool:
+    """A noisy collection of before the expert held its final pose (its spec does not name the hold)."""
+    return bool(spec.get("action_noise")) and "expert_after_last_waypoint" not in spec
 
 
 def _foreign_entries(root: Path, ours: set[str]) -> list[str]:
@@ -314,6 +327,12 @@ def _prepare_root(cfg: CollectConfig) -> Path | None:
             raise ValueError(f"{root} holds a LeRobot dataset not made by lerobot-ivmc-collect; refusing.")
         collection = staging.read_json(info_path)
         diffs = staging.spec_differences(collection["spec"], wanted)
+        if diffs and _made_by_the_drifting_expert(collection["spec"]):
+            raise ValueError(
+                f"{root} holds noisy demos recorded before the expert held its final pose (after its last "
+                "waypoint it stood still while the noise moved the arm); this version records the hold. "
+                "Keep that dataset and collect into a new --root."
+            )
         if diffs:
             raise ValueError(f"{root} holds a dataset of another spec: {'; '.join(diffs)}.")
         if collection["num_episodes"] != cfg.num_episodes:

@@ -25,7 +25,7 @@ from lerobot_ivmc.datasets import (
     rollout,
     staging,
 )
-from lerobot_ivmc.datasets.collect import CollectConfig, _parse_args, collect_demos, main
+from lerobot_ivmc.datasets.collect import CollectConfig, _parse_args, _resume_hint, collect_demos, main
 from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, TASK_ENVS, TASKS, make_task_env
 from lerobot_ivmc.envs.scenes import Scene
 
@@ -172,6 +172,24 @@ def test_longer_demos_hold_the_final_pose_to_the_last_frame(tmp_path, capsys):
     for bad in (99, 201):
         with pytest.raises(ValueError, match=r"episode_steps must be in \[100, 200\]"):
             _config(tmp_path / "bad", episode_steps=bad)
+
+
+def test_noisy_demos_of_the_expert_before_the_hold_are_kept_apart(tmp_path):
+    """A noisy dataset (or unfinished collection) recorded before the expert held its final pose is never
+    extended with demos of the new expert; the refusal says why and what to do."""
+    cfg = _config(tmp_path / "noisy", action_noise=0.1, num_episodes=1)
+    collect_demos(cfg)
+    info_path = cfg.root / staging.COLLECTION_INFO_PATH
+    info = staging.read_json(info_path)
+    del info["spec"]["expert_after_last_waypoint"]  # as the expert of before the hold wrote it
+    staging.write_json(info_path, info)
+    with pytest.raises(ValueError, match="recorded before the expert held its final pose.*new --root"):
+        collect_demos(cfg)
+    old_spec = {**cfg.spec(), "episode_steps": 150}
+    del old_spec["expert_after_last_waypoint"]
+    hint = _resume_hint(cfg, old_spec)
+    assert "no command of this version records" in hint and str(cfg.root / staging.WORK_DIR) in hint
+    assert "--episode-steps 150" in _resume_hint(cfg, {**cfg.spec(), "episode_steps": 150})
 
 
 @pytest.mark.parametrize("action_noise", [-0.1, 1.5])

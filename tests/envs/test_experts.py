@@ -77,9 +77,9 @@ def test_after_its_last_waypoint_the_expert_holds_that_pose_against_action_noise
 
             perturb = ActionNoise(noise, seed) if noise else None
             run_expert_episode(env, expert, seed=seed, on_step=on_step, perturb=perturb)
-            first = done.index(True)
-            if first > DEMO_EPISODE_STEPS - 10:  # finished too late to show a hold
+            if True not in done or done.index(True) > DEMO_EPISODE_STEPS - 10:  # too late to show a hold
                 continue
+            first = done.index(True)
             checked += 1
             away = np.linalg.norm(np.stack(grips[first:]) - grips[first], axis=1)
             if noise == 0:

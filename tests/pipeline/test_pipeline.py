@@ -74,18 +74,23 @@ def test_presets_load_and_any_field_can_be_overridden(tmp_path: Path) -> None:
     widened = parse_config(["--task=push", "--preset=lite", "--foresight.foresight.action_noise=0.3"])
     assert "--foresight.action_noise=0.3" in {s.name: s for s in build_stages(widened)}["foresight_fc1"].argv
     # The policies' augmentation and learning rate: left out unless set (the policy's defaults apply).
-    assert not any("image_shift_pad" in a or "optimizer_lr" in a for a in train.argv)
+    assert not any(f in a for a in train.argv for f in ("image_shift_pad", "optimizer_lr", "chunk_memory"))
     tuned = parse_config(
         [
             "--task=push",
             "--preset=lite",
             "--train.policy.image_shift_pad=0",
             "--train.policy.optimizer_lr=1e-4",
+            "--train.policy.chunk_memory=zero",
         ]
     )
     for stage in build_stages(tuned):
         if stage.name.startswith("train_"):
-            assert {"--policy.image_shift_pad=0", "--policy.optimizer_lr=0.0001"} <= set(stage.argv)
+            assert {
+                "--policy.image_shift_pad=0",
+                "--policy.optimizer_lr=0.0001",
+                "--policy.chunk_memory=zero",
+            } <= set(stage.argv)
     # Longer demos reach the collector, with whole-demo chunks to match; 100-step studies keep their commands.
     assert not any("episode_steps" in a for a in stages["collect"].argv)
     longer = parse_config(
@@ -178,6 +183,7 @@ def test_bad_input_is_refused_with_what_to_do(capsys: pytest.CaptureFixture) -> 
             "--train.policy.chunk_length=150 (--collect.dataset.episode_steps)",
         ),
         ("--train.policy.image_shift_pad=-2", "image_shift_pad must be >= 0"),
+        ("--train.policy.chunk_memory=carried", "--train.policy.chunk_memory must be one of"),
         ("--train.batch_size=0", "--train.batch_size must be positive"),
         ("--eval.batch_size=0", "--eval.batch_size must be positive"),
         # Set by the study itself: an override would be ignored.

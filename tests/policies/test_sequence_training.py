@@ -34,6 +34,9 @@ def chunk_batch(batch_size: int = 3, length: int = 12, seed: int = 0) -> dict[st
     is_pad[1, 8:] = True
     batch[f"{ACTION}_is_pad"] = is_pad
     batch[f"{OBS_STATE}_is_pad"] = is_pad.clone()
+    # Each chunk starts its own episode (as LeRobot gives the first frame's dataset index).
+    batch["episode_index"] = torch.arange(batch_size)
+    batch["index"] = batch["episode_index"] * 1000
     return batch
 
 
@@ -90,7 +93,8 @@ def episode_chunks(length: int = 6, seed: int = 0) -> tuple[dict[str, torch.Tens
     each: the batch of both first chunks, then the batch of both second chunks (LeRobot's `index` is the
     absolute index of a chunk's first frame)."""
     whole = chunk_batch(batch_size=2, length=2 * length, seed=seed)
-    del whole[f"{ACTION}_is_pad"], whole[f"{OBS_STATE}_is_pad"]
+    for key in (f"{ACTION}_is_pad", f"{OBS_STATE}_is_pad", "index", "episode_index"):
+        del whole[key]
     first, second = (
         {k: v[:, part] for k, v in whole.items()} for part in (slice(0, length), slice(length, None))
     )
@@ -179,6 +183,18 @@ def test_lerobot_batches_carry_what_stored_chunk_memory_needs(tiny_dataset: Path
         for batch in torch.utils.data.DataLoader(dataset, batch_size=8, sampler=sampler):
             policy.forward(preprocessor(batch))
     assert len(policy.stored_states) == meta.total_frames
+    # Chunks of whole demos all start at an episode's start (zero memory): nothing is stored for them.
+    whole = make_config(VMCConfig, training_mode="sequence", chunk_length=30)
+    whole_policy = VMCPolicy(whole, dataset_meta=meta)
+    whole_dataset = FrameCache(
+        LeRobotDataset(
+            TINY_REPO_ID, root=tiny_dataset, delta_timestamps=resolve_delta_timestamps(whole, meta)
+        )
+    )
+    batch = torch.utils.data.default_collate([whole_dataset[0], whole_dataset[30]])
+    with torch.no_grad():
+        whole_policy.forward(make_pre_post_processors(whole, dataset_stats=meta.stats)[0](batch))
+    assert len(whole_policy.stored_states) == 0
 
 
 def test_bf16_autocast_trains_on_any_cpu_close_to_fp32() -> None:
@@ -194,6 +210,14 @@ def test_bf16_autocast_trains_on_any_cpu_close_to_fp32() -> None:
     bf16.backward()
     assert torch.isfinite(bf16) and policy.net.lstm.weight_ih.grad is not None
     assert bf16.item() == pytest.approx(fp32.item(), rel=0.05)
+    # Chunks that start mid-episode from stored states, under autocast too.
+    _, first, second = episode_chunks()
+    stored = sequence_policy(BVMCPolicy, image_shift_pad=0, chunk_length=6)
+    with torch.autocast("cpu", dtype=torch.bfloat16):
+        stored.forward(first)
+        loss, _ = stored.forward(second)
+    loss.backward()
+    assert torch.isfinite(loss) and len(stored.stored_states) == 24
 
 
 def test_padded_frames_do_not_change_the_loss() -> None:
@@ -252,7 +276,16 @@ def test_bad_chunk_lengths_and_padding_are_refused(tiny_dataset: Path) -> None:
     with pytest.raises(ValueError, match="padded only after their episode's end"):
         policy.forward(batch)
     with pytest.raises(ValueError, match="expects chunks"):
-        policy.forward({k: v[:, 0] for k, v in chunk_batch().items()})
+        policy.forward({k: v[:, 0] if v.dim() > 1 else v for k, v in chunk_batch().items()})
+    # Stored chunk memory needs each chunk's dataset position, one per chunk.
+    no_position = {k: v for k, v in chunk_batch().items() if k != "index"}
+    with pytest.raises(ValueError, match="needs each chunk's dataset position.*chunk_memory=zero"):
+        policy.forward(no_position)
+    per_frame = chunk_batch()
+    per_frame["index"] = per_frame["index"][:, None].expand(-1, 12)
+    with pytest.raises(ValueError, match=r"one value per chunk \(3\)"):
+        policy.forward(per_frame)
+    assert sequence_policy(chunk_memory="zero").forward(no_position)[0].isfinite()
 
 
 @pytest.mark.parametrize("name", ["vmc", "bvmc"])

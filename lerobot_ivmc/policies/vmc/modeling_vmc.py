@@ -233,8 +233,13 @@ class VMCPolicy(PreTrainedPolicy):
         state_dim = config.input_features[OBS_STATE].shape[0]
         self.net = VisuomotorNet(config, image_shape, state_dim, self._make_head(config, dataset_meta))
         self._memory: Memory | None = None
-        # Sequence training, `chunk_memory="stored"`: the state each demo frame was last left in.
-        self.stored_states = StoredLSTMStates(config.lstm_dim)
+        # Sequence training, `chunk_memory="stored"`: the state each demo frame was last left in. Chunks of
+        # whole demos all start at an episode's start, where the memory is zero: nothing to store then.
+        lengths = episode_lengths(dataset_meta)
+        self._stores_chunk_memory = config.training_mode == "sequence" and config.chunk_memory == "stored"
+        if lengths and set(lengths) == {config.chunk_length}:
+            self._stores_chunk_memory = False
+        self.stored_states = StoredLSTMStates(config.lstm_dim, sum(lengths) if lengths else 0)
 
     def _make_head(self, config: VMCConfig, dataset_meta=None) -> nn.Module:
         """The layers after the LSTM; Bayesian VMC overrides this."""
@@ -343,10 +348,21 @@ class VMCPolicy(PreTrainedPolicy):
     def _unroll_chunks(self, s: Tensor, real: Tensor, batch: dict[str, Tensor]) -> Tensor:
         """The LSTM over (B, L, D_s) chunks -> (B, L, lstm_dim); with stored chunk memory, each chunk starts
         from the stored state of the frame before it and leaves its frames' states for later chunks."""
-        positions = batch.get("index"), batch.get("episode_index")
-        if self.config.chunk_memory != "stored" or positions[0] is None or positions[1] is None:
+        if not self._stores_chunk_memory:
             return self.net.unroll_sequence(s)
+        positions = batch.get("index"), batch.get("episode_index")
+        if positions[0] is None or positions[1] is None:
+            raise ValueError(
+                "chunk_memory='stored' needs each chunk's dataset position: the batch's 'index' and "
+                "'episode_index' (LeRobot's datasets give them). Pass them, or set "
+                "--policy.chunk_memory=zero to start every chunk from zero memory."
+            )
         first_index, episode_index = (p.reshape(-1).long() for p in positions)
+        if first_index.shape[0] != s.shape[0] or episode_index.shape[0] != s.shape[0]:
+            raise ValueError(
+                f"'index' and 'episode_index' must hold one value per chunk ({s.shape[0]}), got shapes "
+                f"{tuple(positions[0].shape)} and {tuple(positions[1].shape)}."
+            )
         memory = self.stored_states.initial(first_index, episode_index, s)
         e = self.net.unroll_sequence(s, memory)
         cells = lstm_cell_states(self.net.lstm, s, e, *memory)
@@ -473,16 +489,21 @@ def chunk_frames_mask(batch: dict[str, Tensor], shape: torch.Size) -> Tensor:
     return real
 
 
+def episode_lengths(dataset_meta=None) -> list[int]:
+    """The frames of each episode of a LeRobot dataset's metadata; empty when unknown."""
+    episodes = getattr(dataset_meta, "episodes", None)  # a Hugging Face dataset, one row per episode
+    if episodes is None or "length" not in episodes.column_names:
+        return []
+    return [int(length) for length in episodes["length"]]
+
+
 def check_chunk_length(config: VMCConfig, dataset_meta=None) -> None:
     """Refuse a sequence chunk longer than the shortest training episode (that episode would never be
     sampled: chunks start only where they fit)."""
-    if config.training_mode != "sequence" or dataset_meta is None:
+    lengths = episode_lengths(dataset_meta)
+    if config.training_mode != "sequence" or not lengths:
         return
-    episodes = getattr(dataset_meta, "episodes", None)  # a Hugging Face dataset, one row per episode
-    if episodes is None or "length" not in episodes.column_names:
-        return
-    shortest = int(min(episodes["length"]))
-    longest = int(max(episodes["length"]))
+    shortest, longest = min(lengths), max(lengths)
     if config.goal_head and config.chunk_length != longest:
         raise ValueError(
             "goal_head learns the object's position at each demo's end, so every chunk must be a whole "

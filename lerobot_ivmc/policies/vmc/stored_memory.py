@@ -19,15 +19,18 @@ class StoredLSTMStates:
     """Per-frame LSTM states (h, c), addressed by the dataset's absolute frame index.
 
     Kept on the policy as a plain attribute (not a buffer): it is training state, never saved in a checkpoint.
+    h and c of a frame are one row, written together, so a frame that two overlapping chunks of a batch both
+    hold gets both halves from the same chunk.
 
     Args:
         hidden_size: the LSTM's width.
+        num_frames: frames of the dataset (rows to allocate up front); 0 grows with the indices seen.
     """
 
-    def __init__(self, hidden_size: int):
+    def __init__(self, hidden_size: int, num_frames: int = 0):
         self.hidden_size = hidden_size
-        self.h: Tensor | None = None  # (F, hidden_size)
-        self.c: Tensor | None = None
+        self.num_frames = num_frames
+        self.states: Tensor | None = None  # (F, 2 * hidden_size): h then c
         self.episode: Tensor | None = None  # (F,) episode of each stored frame, -1 where none is stored
 
     def __len__(self) -> int:
@@ -45,36 +48,35 @@ class StoredLSTMStates:
         Returns:
             h0, c0, each (B, hidden_size), detached.
         """
-        zeros = like.new_zeros(first_index.shape[0], self.hidden_size)
         if self.episode is None:
+            zeros = like.new_zeros(first_index.shape[0], self.hidden_size)
             return zeros, zeros.clone()
         before = first_index.to(self.episode.device) - 1
         inside = (before >= 0) & (before < self.episode.shape[0])
         rows = before.clamp(0, self.episode.shape[0] - 1)
         known = inside & (self.episode[rows] == episode_index.to(self.episode.device))
-        h = torch.where(known[:, None], self.h[rows], 0.0).to(like)
-        c = torch.where(known[:, None], self.c[rows], 0.0).to(like)
-        return h, c
+        states = torch.where(known[:, None], self.states[rows], 0.0).to(like)
+        return states[:, : self.hidden_size], states[:, self.hidden_size :]
 
     @torch.no_grad()
     def store(self, frame_index: Tensor, episode_index: Tensor, h: Tensor, c: Tensor) -> None:
         """Keep the state (h, c) each of N frames ended with (each (N, hidden_size)), replacing older ones."""
-        needed = int(frame_index.max()) + 1 if frame_index.numel() else 0
+        if frame_index.numel() == 0:
+            return
+        needed = int(frame_index.max()) + 1
         if self.episode is None or needed > self.episode.shape[0]:
-            self._grow(max(needed, 2 * (0 if self.episode is None else self.episode.shape[0])), h.device)
+            self._grow(max(needed, self.num_frames), h.device)
         rows = frame_index.to(self.episode.device)
-        self.h[rows] = h.detach().float()
-        self.c[rows] = c.detach().float()
+        self.states[rows] = torch.cat([h, c], dim=-1).detach().float()
         self.episode[rows] = episode_index.to(self.episode.device)
 
     def _grow(self, size: int, device: torch.device) -> None:
-        h = torch.zeros(size, self.hidden_size, device=device)
-        c = torch.zeros_like(h)
+        states = torch.zeros(size, 2 * self.hidden_size, device=device)
         episode = torch.full((size,), -1, dtype=torch.long, device=device)
         if self.episode is not None:
             old = self.episode.shape[0]
-            h[:old], c[:old], episode[:old] = self.h, self.c, self.episode
-        self.h, self.c, self.episode = h, c, episode
+            states[:old], episode[:old] = self.states, self.episode
+        self.states, self.episode = states, episode
 
 
 @torch.no_grad()
