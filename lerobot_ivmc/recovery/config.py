@@ -7,6 +7,7 @@ from dataclasses import dataclass
 # none: Bayesian VMC without recovery; min_unc: the paper's back-track and minimum-uncertainty recovery;
 # rand and init: the paper's baselines ("Baselines for Visuomotor Control Recovery").
 RECOVERY_MODES = ("none", "rand", "init", "min_unc")
+MIN_UNC_MEMORY = ("restore", "reset")
 
 
 @dataclass
@@ -43,6 +44,10 @@ class RecoveryConfig:
             their end-effector moves (action units). None: the noise the checkpoint's foresight head was
             distilled with (`--foresight.action_noise`; 0, the paper's plain samples, for older heads), so
             the head ranks the kind of actions it learned from.
+        min_unc_memory: the policy memory min_unc continues with after its back-track. "restore" (the
+            paper's Algorithm 1): the memory saved at the point of minimum uncertainty. "reset" (beyond the
+            paper): the memory after `reset()`, as init and rand end: a false belief the carried memory
+            formed before that point (e.g. "the task is done") goes with it.
         max_videos: at most this many videos of episodes with a recovery, the uncertainty trace drawn under
             the frames (frames are rendered for every episode until they are found; 0 disables).
     """
@@ -59,6 +64,7 @@ class RecoveryConfig:
     init_sphere_radius: float = 0.1
     move_tolerance: float = 0.01
     candidate_noise: float | None = None
+    min_unc_memory: str = "restore"
     max_videos: int = 4
 
     def __post_init__(self) -> None:
@@ -83,6 +89,15 @@ class RecoveryConfig:
             raise ValueError(
                 f"--recovery.candidate_noise is a standard deviation in action units, in [0, 1]; got "
                 f"{self.candidate_noise}."
+            )
+        if self.min_unc_memory not in MIN_UNC_MEMORY:
+            raise ValueError(
+                f"--recovery.min_unc_memory must be one of {MIN_UNC_MEMORY}, got {self.min_unc_memory!r}."
+            )
+        if self.min_unc_memory != "restore" and self.mode != "min_unc":
+            raise ValueError(
+                "--recovery.min_unc_memory sets min_unc's memory after its back-track; it has no effect with "
+                f"--recovery.mode={self.mode}: drop it or use --recovery.mode=min_unc."
             )
         if self.rand_step_scale > 1:
             raise ValueError(

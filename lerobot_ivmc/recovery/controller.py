@@ -161,7 +161,11 @@ class IntrospectiveController(BVMCRolloutWrapper):
         mode, cfg = self.recovery.mode, self.recovery
         if mode == "min_unc":
             manoeuvre = BacktrackThenFollow(
-                list(self.fifos[row]), cfg.recovery_steps, cfg.backtrack_horizon, cfg.backtrack_tolerance
+                list(self.fifos[row]),
+                cfg.recovery_steps,
+                cfg.backtrack_horizon,
+                cfg.backtrack_tolerance,
+                reset_memory=cfg.min_unc_memory == "reset",
             )
             event_extra = {"backtrack_to_step": manoeuvre.target.step}
         elif mode == "rand":

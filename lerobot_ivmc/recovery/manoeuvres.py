@@ -64,17 +64,20 @@ class Manoeuvre:
 
 
 class BacktrackThenFollow(Manoeuvre):
-    """min_unc: move back to the FIFO's point of minimum uncertainty, restore the memory saved there, then
-    for `steps` steps execute the sampled action of lowest foreseen uncertainty.
+    """min_unc: move back to the FIFO's point of minimum uncertainty, restore the memory saved there (or
+    reset it), then for `steps` steps execute the sampled action of lowest foreseen uncertainty.
 
     Args:
         fifo: the last normal steps, oldest first.
         steps: steps of following the minimum foreseen uncertainty.
         horizon: most steps the back-track may take.
         tolerance: the back-track ends this close (metres) to the target.
+        reset_memory: after the back-track, reset the memory instead of restoring the saved one.
     """
 
-    def __init__(self, fifo: list[FifoEntry], steps: int, horizon: int, tolerance: float):
+    def __init__(
+        self, fifo: list[FifoEntry], steps: int, horizon: int, tolerance: float, reset_memory: bool = False
+    ):
         if not fifo:
             raise ValueError("Back-tracking needs at least one step in the FIFO.")
         self.target = min(fifo, key=lambda entry: entry.uncertainty)
@@ -82,6 +85,7 @@ class BacktrackThenFollow(Manoeuvre):
         self.steps_left = steps
         self.backtrack_steps_left = horizon
         self.tolerance = tolerance
+        self.reset_memory = reset_memory
         self.finished = False
 
     def advance(self, grip: np.ndarray) -> MemoryChange | None:
@@ -89,7 +93,7 @@ class BacktrackThenFollow(Manoeuvre):
             np.linalg.norm(grip - self.target.grip) <= self.tolerance or self.backtrack_steps_left == 0
         ):
             self.phase = FOLLOW_MIN_UNC
-            return MemoryChange(self.target.memory)
+            return MemoryChange(None if self.reset_memory else self.target.memory)
         if self.phase == FOLLOW_MIN_UNC and self.steps_left == 0:
             self.finished = True
         return None
