@@ -110,6 +110,35 @@ def test_min_unc_backtracks_to_the_least_uncertain_step_and_restores_its_memory(
     assert (phases[10:step] == BACKTRACK).all() and (phases[step : step + 3] == FOLLOW_MIN_UNC).all()
 
 
+def test_min_unc_with_min_unc_memory_reset_backtracks_then_resets_the_memory() -> None:
+    """`--recovery.min_unc_memory=reset`: the same back-track, then the memory after `reset()` instead of
+    the saved one (a false belief formed before the back-track point goes)."""
+    stream = [0.2] * 4 + [0.01] + [0.2] * 5 + [1.0] + [0.2] * 100
+    policy = scripted_policy(stream, move=[0.0, 0.6, 0.0])
+    cfg = RecoveryConfig(
+        mode="min_unc", window=1, initial_interval=0, recovery_steps=3, min_unc_memory="reset"
+    )
+    controller = IntrospectiveController(policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS)
+    changes, apply = [], controller._apply
+
+    def recording_apply(row, change):
+        apply(row, change)
+        changes.append((change, policy.get_memory()))
+
+    controller._apply = recording_apply
+    run_episode(controller, steps=20)
+    events = controller.traces[-1].events[0]
+    assert events[0]["step"] == 10 and events[0]["backtrack_to_step"] == 4
+    change, memory_after = changes[0]
+    assert change.memory is None  # reset, not restored
+    for value, initial in zip(memory_after, policy.initial_memory(1), strict=True):
+        assert torch.equal(value, initial)
+    with pytest.raises(ValueError, match="min_unc_memory must be one of"):
+        RecoveryConfig(mode="min_unc", min_unc_memory="forget")
+    with pytest.raises(ValueError, match="no effect with --recovery.mode=init"):
+        RecoveryConfig(mode="init", min_unc_memory="reset")
+
+
 def test_min_unc_executes_the_candidate_with_the_lowest_foreseen_uncertainty() -> None:
     policy = scripted_policy([0.0], move=[0.0, 0.0, 0.0])
     cfg = RecoveryConfig(mode="min_unc")
