@@ -254,18 +254,18 @@ def _quiet_datasets() -> Iterator[None]:
 
 def _resume_hint(cfg: CollectConfig, spec: dict) -> str:
     """How to continue an unfinished collection of `spec` in `cfg.root`, or drop it."""
-    args = f"--task {spec['task']} --split {spec['split']} --seed {spec['seed']}"
-    args += f" --image-size {spec['image_size']}"
-    args += " --video" * bool(spec.get("video"))
-    args += f" --action-noise {spec['action_noise']}" if spec.get("action_noise") else ""
-    if spec.get("episode_steps", DEMO_EPISODE_STEPS) != DEMO_EPISODE_STEPS:
-        args += f" --episode-steps {spec['episode_steps']}"
     drop = f"to drop it, remove {cfg.root / staging.WORK_DIR}."
     if _made_by_the_drifting_expert(spec):
         return (
             "Its demos were recorded by the expert of before the final-pose hold, which no command of this "
             f"version records: {drop}"
         )
+    args = f"--task {spec['task']} --split {spec['split']} --seed {spec['seed']}"
+    args += f" --image-size {spec['image_size']}"
+    args += " --video" * bool(spec.get("video"))
+    args += f" --action-noise {spec['action_noise']}" if spec.get("action_noise") else ""
+    if spec.get("episode_steps", DEMO_EPISODE_STEPS) != DEMO_EPISODE_STEPS:
+        args += f" --episode-steps {spec['episode_steps']}"
     return (
         f"To finish it, rerun with its arguments: lerobot-ivmc-collect --root {cfg.root} "
         f"--num-episodes {cfg.num_episodes} {args}; {drop}"

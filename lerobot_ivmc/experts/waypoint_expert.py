@@ -125,11 +125,12 @@ class WaypointExpert:
 
     def _advance(self) -> None:
         self._index += 1
-        if self.done and np.linalg.norm(self._goal - self.env.grip_position) >= self._waypoints[-1].tolerance:
-            # Left on a timeout, not reached: hold where the expert finished, not a goal it cannot reach.
-            self._goal = self.env.grip_position.copy()
-        elif not self.done:  # the last waypoint's goal stays: `_hold` keeps the grip point there
+        if not self.done:
             self._goal = None
+        elif np.linalg.norm(self._goal - self.env.grip_position) >= self._waypoints[-1].tolerance:
+            # The last waypoint, left on a timeout, not reached: hold where the expert finished, not a goal it
+            # cannot reach. (Reached, its goal stays: `_hold` keeps the grip point there.)
+            self._goal = self.env.grip_position.copy()
         self._steps_on_waypoint = 0
         self._held = 0
 

@@ -40,6 +40,18 @@ def chunk_batch(batch_size: int = 3, length: int = 12, seed: int = 0) -> dict[st
     return batch
 
 
+def rollout_outputs(policy: VMCPolicy, batch: dict[str, torch.Tensor]) -> list[torch.Tensor]:
+    """The four decoded outputs, each (B, T, ...), of a step-by-step rollout from `reset()` with carried
+    memory over the batch's T frames."""
+    policy.reset()
+    steps = []
+    with torch.no_grad():
+        for t in range(batch[IMAGE_KEY].shape[1]):
+            obs = {IMAGE_KEY: batch[IMAGE_KEY][:, t], OBS_STATE: batch[OBS_STATE][:, t]}
+            steps.append(policy.net.decode(policy.step_embedding(obs), stochastic=False))
+    return [torch.stack([step[i] for step in steps], dim=1) for i in range(4)]
+
+
 def sequence_policy(cls: type[VMCPolicy] = VMCPolicy, **kwargs) -> VMCPolicy:
     torch.manual_seed(0)
     return cls(make_config(cls.config_class, **{"training_mode": "sequence", "chunk_length": 12, **kwargs}))
@@ -76,14 +88,8 @@ def test_chunk_loss_equals_a_step_by_step_rollout_from_reset_with_carried_memory
     batch = chunk_batch()
     loss, _ = policy.forward(batch)
 
-    policy.reset()
-    steps = []
-    with torch.no_grad():
-        for t in range(batch[IMAGE_KEY].shape[1]):
-            obs = {IMAGE_KEY: batch[IMAGE_KEY][:, t], OBS_STATE: batch[OBS_STATE][:, t]}
-            steps.append(policy.net.decode(policy.step_embedding(obs), stochastic=False))
     real = ~batch[f"{ACTION}_is_pad"]
-    outputs = [torch.stack([step[i] for step in steps], dim=1)[real] for i in range(4)]
+    outputs = [output[real] for output in rollout_outputs(policy, batch)]
     expected = sum(supervised_losses(outputs, batch[ACTION][real], batch[OBS_ENV_STATE][real]).values())
     torch.testing.assert_close(loss.detach(), expected, rtol=1e-5, atol=1e-6)
 
@@ -106,13 +112,7 @@ def episode_chunks(length: int = 6, seed: int = 0) -> tuple[dict[str, torch.Tens
 
 def rollout_loss(policy: VMCPolicy, whole: dict[str, torch.Tensor], frames: slice) -> torch.Tensor:
     """The supervised loss on `frames` of a step-by-step rollout from `reset()` over the whole episodes."""
-    policy.reset()
-    steps = []
-    with torch.no_grad():
-        for t in range(whole[IMAGE_KEY].shape[1]):
-            obs = {IMAGE_KEY: whole[IMAGE_KEY][:, t], OBS_STATE: whole[OBS_STATE][:, t]}
-            steps.append(policy.net.decode(policy.step_embedding(obs), stochastic=False))
-    outputs = [torch.stack([step[i] for step in steps], dim=1)[:, frames].flatten(0, 1) for i in range(4)]
+    outputs = [output[:, frames].flatten(0, 1) for output in rollout_outputs(policy, whole)]
     labels = (whole[ACTION][:, frames].flatten(0, 1), whole[OBS_ENV_STATE][:, frames].flatten(0, 1))
     return sum(supervised_losses(outputs, *labels).values())
 

@@ -236,9 +236,10 @@ class VMCPolicy(PreTrainedPolicy):
         # Sequence training, `chunk_memory="stored"`: the state each demo frame was last left in. Chunks of
         # whole demos all start at an episode's start, where the memory is zero: nothing to store then.
         lengths = episode_lengths(dataset_meta)
-        self._stores_chunk_memory = config.training_mode == "sequence" and config.chunk_memory == "stored"
-        if lengths and set(lengths) == {config.chunk_length}:
-            self._stores_chunk_memory = False
+        whole_demos = bool(lengths) and set(lengths) == {config.chunk_length}
+        self._stores_chunk_memory = (
+            config.training_mode == "sequence" and config.chunk_memory == "stored" and not whole_demos
+        )
         self.stored_states = StoredLSTMStates(config.lstm_dim, sum(lengths) if lengths else 0)
 
     def _make_head(self, config: VMCConfig, dataset_meta=None) -> nn.Module:
