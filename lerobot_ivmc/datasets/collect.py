@@ -59,7 +59,15 @@ from lerobot_ivmc.datasets.features import (
 )
 from lerobot_ivmc.datasets.root_lock import LOCK_FILE, RootLock
 from lerobot_ivmc.datasets.verify import dataset_problems
-from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, MAX_EPISODE_STEPS, TASK_ENVS, TASKS, check_task, gym_id
+from lerobot_ivmc.envs import (
+    DEMO_EPISODE_STEPS,
+    MAX_EPISODE_STEPS,
+    TASK_ENVS,
+    TASKS,
+    check_demo_episode_steps,
+    check_task,
+    gym_id,
+)
 from lerobot_ivmc.envs.fetch_env import check_image_size
 from lerobot_ivmc.envs.scenes import SPLITS
 
@@ -121,12 +129,7 @@ class CollectConfig:
             raise ValueError(f"num_workers must be >= 0, got {self.num_workers}.")
         if self.seed < 0:
             raise ValueError(f"seed must be >= 0, got {self.seed}.")
-        if not DEMO_EPISODE_STEPS <= self.episode_steps <= MAX_EPISODE_STEPS:
-            raise ValueError(
-                f"episode_steps must be in [{DEMO_EPISODE_STEPS}, {MAX_EPISODE_STEPS}] (the experts need "
-                f"up to {DEMO_EPISODE_STEPS} steps; rollouts end at {MAX_EPISODE_STEPS}), "
-                f"got {self.episode_steps}."
-            )
+        check_demo_episode_steps("episode_steps", self.episode_steps)
         if not 0.0 <= self.action_noise <= 1.0:
             raise ValueError(f"action_noise must be in [0, 1] action units, got {self.action_noise}.")
         self.root = Path(self.root) if self.root is not None else Path("data") / f"ivmc_{self.task}"

@@ -24,6 +24,16 @@ def check_task(task: str) -> str:
     return task
 
 
+def check_demo_episode_steps(flag: str, steps: int) -> int:
+    """Return `steps` if demos may last that long, else raise a ValueError naming `flag` and the range."""
+    if not DEMO_EPISODE_STEPS <= steps <= MAX_EPISODE_STEPS:
+        raise ValueError(
+            f"{flag} must be in [{DEMO_EPISODE_STEPS}, {MAX_EPISODE_STEPS}] (the experts need up to "
+            f"{DEMO_EPISODE_STEPS} steps; rollouts end at {MAX_EPISODE_STEPS}), got {steps}."
+        )
+    return steps
+
+
 def gym_id(task: str) -> str:
     """The gymnasium id of a task, e.g. ``lerobot_ivmc/PickPlace-v0``."""
     return f"lerobot_ivmc/{TASK_ENVS[check_task(task)].__name__.removesuffix('Env')}-v0"
@@ -54,6 +64,7 @@ __all__ = [
     "TASKS",
     "TASK_ENVS",
     "IvmcFetchEnv",
+    "check_demo_episode_steps",
     "check_task",
     "gym_id",
     "make_task_env",

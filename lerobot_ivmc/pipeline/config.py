@@ -13,7 +13,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from lerobot_ivmc.datasets.record_config import RecordDemosConfig
-from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, MAX_EPISODE_STEPS, TASKS
+from lerobot_ivmc.envs import TASKS, check_demo_episode_steps
 from lerobot_ivmc.policies.vmc.configuration_vmc import VMCConfig
 from lerobot_ivmc.recovery.foresight_training import ForesightConfig
 from lerobot_ivmc.scripts.pick_threshold import THRESHOLD_METHODS
@@ -219,11 +219,7 @@ class PipelineConfig:
         """Refuse values a later stage would refuse, before hours of earlier stages are spent."""
         policy = self.train.policy
         demo_steps = self.collect.dataset.episode_steps
-        if not DEMO_EPISODE_STEPS <= demo_steps <= MAX_EPISODE_STEPS:
-            raise ValueError(
-                "--collect.dataset.episode_steps must be in "
-                f"[{DEMO_EPISODE_STEPS}, {MAX_EPISODE_STEPS}], got {demo_steps}."
-            )
+        check_demo_episode_steps("--collect.dataset.episode_steps", demo_steps)
         if not 1 <= policy.chunk_length <= demo_steps:
             raise ValueError(
                 f"--train.policy.chunk_length must be in [1, {demo_steps}] (the demos' length, "
