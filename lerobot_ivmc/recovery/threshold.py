@@ -44,7 +44,9 @@ def argmax_threshold(scores: Sequence[float], successes: Sequence[bool]) -> tupl
     """The paper's threshold: i* = argmax_i |{x: u(x) > u_i}| * r - |{x: u(x) > u_i, success}|, C = u_{i*}.
 
     Under the paper's assumption that a recovered episode succeeds at the average rate r, the bracket is
-    the gain in successes from recovering every episode whose u exceeds u_i. Ties go to the lowest u_i.
+    the gain in successes from recovering every episode whose u exceeds u_i. Ties go to the highest u_i:
+    the same expected gain with the fewest recoveries (so with no validation failure, where every candidate
+    gains nothing, no validation episode would trigger one).
 
     Args:
         scores: u of each validation episode.
@@ -60,7 +62,8 @@ def argmax_threshold(scores: Sequence[float], successes: Sequence[bool]) -> tupl
     candidates = np.sort(u)
     above = u[None, :] > candidates[:, None]  # (candidate, episode)
     gains = above.sum(axis=1) * ok.mean() - (above & ok[None, :]).sum(axis=1)
-    return float(candidates[int(np.argmax(gains))]), gains
+    best = np.flatnonzero(np.isclose(gains, gains.max(), rtol=0.0, atol=1e-9))[-1]
+    return float(candidates[best]), gains
 
 
 def conformal_threshold(success_scores: Sequence[float], alpha: float) -> float:

@@ -109,6 +109,12 @@ def threshold_main(cfg: ThresholdPipelineConfig) -> ThresholdRecord:
         f"{record.task}: threshold C = {record.threshold:.4f} ({record.method}, window {record.window}) from "
         f"{len(record.episodes)} {record.split} episodes; {above} of them exceed it."
     )
+    if all(e["success"] for e in record.episodes):
+        print(
+            f"No {record.split} episode failed: the threshold has nothing to learn from. Recovery will "
+            "trigger only above every validation episode's uncertainty; to bound false alarms instead, use "
+            "--method=conformal --alpha=<rate>."
+        )
     print(f"Checkpoint with the threshold: {Path(cfg.output_dir) / CHECKPOINT_DIR}")
     return record
 

@@ -33,7 +33,15 @@ def test_argmax_threshold_by_hand() -> None:
     # u=1: n=5, s=2 -> 0.5; u=2: n=4, s=1 -> 1.0; u=3: n=3, s=1 -> 0.5; u=4: n=2, s=0 -> 1.0;
     # u=5: n=1, s=0 -> 0.5; u=6: n=0 -> 0.
     np.testing.assert_allclose(gains, [0.5, 1.0, 0.5, 1.0, 0.5, 0.0])
-    assert threshold == 2.0  # the first (lowest) of the tied maxima
+    assert threshold == 4.0  # the highest of the tied maxima: the same gain, recovering no success
+
+
+def test_argmax_threshold_never_recovers_a_policy_that_never_failed() -> None:
+    scores = [0.4, 0.9, 0.6, 0.5]
+    threshold, gains = argmax_threshold(scores, [True] * 4)
+    np.testing.assert_allclose(gains, 0.0)
+    assert threshold == 0.9
+    assert not any(u > threshold for u in scores)  # no validation episode would trigger a recovery
 
 
 def test_argmax_threshold_with_ties_and_bad_input() -> None:
