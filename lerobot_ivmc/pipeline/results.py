@@ -8,6 +8,7 @@ import json
 import math
 import shutil
 import statistics
+from dataclasses import asdict
 from pathlib import Path
 
 from lerobot_ivmc.evaluation.compare import EVAL_INFO_FILE, paired_outcomes
@@ -25,6 +26,7 @@ from lerobot_ivmc.pipeline.stages import (
     seed_suffix,
     stage_output,
 )
+from lerobot_ivmc.recovery.threshold import ThresholdRecord
 
 RESULTS_DIR = "results"
 METHOD_LABELS = {
@@ -302,6 +304,7 @@ def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageR
                 "auroc": finite(detection["auroc"]),
             },
             "videos": [f"fc{fc}_min_unc_{v.name}" for v in videos[:MAX_VIDEOS]],
+            "threshold": threshold_record(stages, fc),
         }
     ended = {t.name for t in timings}
     seed_rows, seed_summary = (
@@ -347,6 +350,13 @@ def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageR
         )
     (out / "table.md").write_text("".join(lines))
     return out
+
+
+def threshold_record(stages: list[Stage], fc: int) -> dict | None:
+    """The picked threshold with its validation episodes (seed, u, success), so it can be re-picked."""
+    stage = next((s for s in stages if s.name == f"threshold_fc{fc}"), None)
+    record = ThresholdRecord.load(stage.done_file.parent) if stage is not None else None
+    return asdict(record) if record is not None else None
 
 
 def finite(value: float | None) -> float | None:

@@ -14,6 +14,7 @@ import pytest
 
 from lerobot_ivmc.pipeline.stages import build_stages
 from lerobot_ivmc.policies.vmc.modeling_vmc import cpu_has_native_bf16
+from lerobot_ivmc.recovery.threshold import argmax_threshold
 from lerobot_ivmc.scripts.pipeline import parse_config
 
 ROWS = ["vmc", "none", "rand", "init", "min_unc"]
@@ -244,6 +245,13 @@ def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Pa
     assert (out / "results" / "fig3_fc1.png").stat().st_size > 0
     assert results["per_fc"]["1"]["fig3"]["episodes"] == 4
     assert "auroc" in results["per_fc"]["1"]["detection"]
+    # The threshold travels with its validation episodes, so a reader can re-pick it by program.
+    threshold = results["per_fc"]["1"]["threshold"]
+    assert threshold["method"] == "argmax" and threshold["split"] == "val"
+    picked, _ = argmax_threshold(
+        [e["u"] for e in threshold["episodes"]], [e["success"] for e in threshold["episodes"]]
+    )
+    assert picked == threshold["threshold"]
     table = (out / "results" / "table.md").read_text()
     assert all(
         label in table
