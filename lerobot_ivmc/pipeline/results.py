@@ -21,6 +21,7 @@ from lerobot_ivmc.pipeline.stages import (
     Stage,
     eval_stage_name,
     fig3_stage_name,
+    find_stage,
     perception_stage_name,
     seed_eval_stage_name,
     seed_suffix,
@@ -354,8 +355,7 @@ def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageR
 
 def threshold_record(stages: list[Stage], fc: int) -> dict | None:
     """The picked threshold with its validation episodes (seed, u, success), so it can be re-picked."""
-    stage = next((s for s in stages if s.name == f"threshold_fc{fc}"), None)
-    record = ThresholdRecord.load(stage.done_file.parent) if stage is not None else None
+    record = ThresholdRecord.load(find_stage(stages, f"threshold_fc{fc}").done_file.parent)
     return asdict(record) if record is not None else None
 
 

@@ -346,8 +346,12 @@ def fig3_stage_name(cfg: PipelineConfig, fc: int) -> str:
     return eval_stage_name("bvmc", fc, "none") if same else f"fig3_fc{fc}"
 
 
+def find_stage(stages: list[Stage], name: str) -> Stage:
+    return next(stage for stage in stages if stage.name == name)
+
+
 def stage_output(stages: list[Stage], name: str) -> Path:
-    return next(stage.output for stage in stages if stage.name == name)
+    return find_stage(stages, name).output
 
 
 def eval_stage(
