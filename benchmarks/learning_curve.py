@@ -19,6 +19,8 @@ import sys
 from datetime import datetime
 from pathlib import Path
 
+from lerobot_ivmc.pipeline.stages import console_script
+
 LOG_LINE = re.compile(r"INFO (\d{4}-\d\d-\d\d \d\d:\d\d:\d\d) \S+ (.{0,60})")
 CHECKPOINT = re.compile(r"Checkpoint policy after step (\d+)")
 START = "Logs will be saved"
@@ -51,9 +53,8 @@ def evaluate(checkpoint: Path, out: Path, args: argparse.Namespace) -> dict:
     """Milestone rates of one checkpoint (evaluated once; the result is reused on later runs)."""
     info = out / "eval_info.json"
     if not info.is_file():
-        beside = Path(sys.executable).parent / "lerobot-ivmc-eval"  # the venv's, when not on PATH
         command = [
-            str(beside) if beside.exists() else "lerobot-ivmc-eval",
+            console_script("lerobot-ivmc-eval"),
             f"--policy.path={checkpoint / 'pretrained_model'}",
             "--env.type=ivmc",
             f"--env.task={args.task}",
