@@ -327,7 +327,7 @@ def test_goal_head_learns_the_object_position_at_each_demo_end() -> None:
     for name in ("loss_delta_ee", "loss_gripper", "loss_ee_pos", "loss_obj_pos"):
         assert info[name] == pytest.approx(plain_info[name], rel=1e-6)
 
-    outputs, _, targets = policy._sequence_outputs(batch)
+    outputs, _, targets, _ = policy._sequence_outputs(batch)
     object_end = batch[OBS_ENV_STATE][:, [11, 7, 11], 3:].diagonal(dim1=0, dim2=1).T  # last real frames
     real = ~batch[f"{ACTION}_is_pad"]
     expected = object_end[:, None].expand(-1, 12, -1)[real]
@@ -336,6 +336,45 @@ def test_goal_head_learns_the_object_position_at_each_demo_end() -> None:
         torch.nn.functional.mse_loss(outputs[4], expected).item(), rel=1e-5
     )
     with torch.no_grad():  # acting never uses it: the same actions as the net without the head
+        policy.reset(), plain.reset()
+        obs = {IMAGE_KEY: batch[IMAGE_KEY][:, 0], OBS_STATE: batch[OBS_STATE][:, 0]}
+        assert torch.equal(policy.select_action(obs), plain.select_action(obs))
+
+
+@pytest.mark.parametrize("training_mode", ["sequence", "window"])
+def test_frame_position_head_reads_positions_from_each_frames_cnn_map_alone(training_mode: str) -> None:
+    """Its two losses are the MSE of a linear read-out of each real frame's CNN map against that frame's
+    EE and object positions; they train the CNN, never the LSTM or the state path, and acting ignores it."""
+    batch = chunk_batch()
+    if training_mode == "window":  # 4-frame windows, the last frame's action the label
+        batch = {k: v[:, :4] for k, v in batch.items() if k not in ("index", "episode_index")}
+        batch[ACTION] = batch[ACTION][:, -1]
+        del batch[f"{ACTION}_is_pad"], batch[f"{OBS_STATE}_is_pad"]
+    kwargs = {"training_mode": training_mode, "image_shift_pad": 0}
+    policy = sequence_policy(frame_position_head=True, **kwargs)
+    plain = sequence_policy(**kwargs)
+    plain.load_state_dict({k: v for k, v in policy.state_dict().items() if "frame_position" not in k})
+    loss, info = policy.forward(batch)
+    _, plain_info = plain.forward(batch)
+    for name in ("loss_delta_ee", "loss_gripper", "loss_ee_pos", "loss_obj_pos"):
+        assert info[name] == pytest.approx(plain_info[name], rel=1e-6)
+
+    real = torch.ones(batch[ACTION].shape[:2], dtype=torch.bool)
+    if training_mode == "sequence":
+        real = ~batch[f"{ACTION}_is_pad"]
+    frames, aux = batch[IMAGE_KEY][real], batch[OBS_ENV_STATE][real]
+    with torch.no_grad():
+        read_out = policy.net.frame_position_decoder(policy.net.cnn(frames).flatten(1))
+    mse = torch.nn.functional.mse_loss
+    assert info["loss_frame_ee_pos"] == pytest.approx(mse(read_out[:, :3], aux[:, :3]).item(), rel=1e-5)
+    assert info["loss_frame_obj_pos"] == pytest.approx(mse(read_out[:, 3:], aux[:, 3:]).item(), rel=1e-5)
+
+    policy.zero_grad()
+    _, _, _, (predicted, targets) = getattr(policy, f"_{training_mode}_outputs")(batch)
+    mse(predicted, targets).backward()
+    assert policy.net.cnn[0].weight.grad.abs().sum() > 0
+    assert all(p.grad is None for p in policy.net.lstm.parameters())
+    with torch.no_grad():  # acting never uses it
         policy.reset(), plain.reset()
         obs = {IMAGE_KEY: batch[IMAGE_KEY][:, 0], OBS_STATE: batch[OBS_STATE][:, 0]}
         assert torch.equal(policy.select_action(obs), plain.select_action(obs))

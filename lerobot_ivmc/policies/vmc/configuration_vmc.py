@@ -66,6 +66,12 @@ class VMCConfig(PreTrainedConfig):
             auxiliary ones. The paper's policies learn the target's position only through the action loss,
             and place last (README). Needs sequence training on whole demos (`chunk_length` equal to every
             demo's length), so that each chunk's last frame is its demo's end; off by default (the paper).
+        frame_position_head: beyond the paper: a linear head reads the end-effector and object positions
+            from each frame's CNN feature map alone (before the LSTM, without the state), two MSE losses
+            weighed like the auxiliary ones on every trained frame. The paper's auxiliary heads read the LSTM
+            embedding, which can answer from the carried memory (the expert's path so far) instead of the
+            image; this head makes the CNN find the cube in every frame. A training target only, never used
+            to act; off by default (the paper).
         image_shift_pad: training augmentation: each window's frames are shifted together by a random
             offset of up to this many pixels per axis (DrQ / RAD random shift); 0 disables it.
         optimizer_lr: Adam learning rate.
@@ -103,6 +109,7 @@ class VMCConfig(PreTrainedConfig):
     chunk_memory: str = "stored"
     rollout_memory: str | None = None
     goal_head: bool = False
+    frame_position_head: bool = False
 
     # Training augmentation (4 px of 64, as the usual 84 -> 76 random crops of pixel-based imitation).
     image_shift_pad: int = 4

@@ -3,8 +3,9 @@
 CNN over the RGB frame -> spatial feature map concatenated with the tiled proprioception -> LSTM ->
 #fc fully connected layers -> four heads: delta end-effector command (MSE), gripper close / no-op / open
 (cross-entropy), auxiliary end-effector and object positions (MSE); the four losses equally weighted
-(the paper's Eq. (loss-vmc)). Optionally (`goal_head`, beyond the paper) a fifth head for the object's
-position at the end of the demo. `BVMCPolicy` swaps the fully connected layers for concrete dropout ones.
+(the paper's Eq. (loss-vmc)). Optionally (beyond the paper) a head for the object's position at the end
+of the demo (`goal_head`) and one reading the positions from each frame's CNN map (`frame_position_head`).
+`BVMCPolicy` swaps the fully connected layers for concrete dropout ones.
 """
 
 import contextlib
@@ -24,6 +25,8 @@ NUM_GRIPPER_CLASSES = len(GRIPPER_COMMANDS)
 POSITION_DIM = AUX_DIM // 2
 # Rollout memory: the LSTM state (h, c), or the last K state representations (`rollout_memory`).
 Memory = tuple[Tensor, ...]
+# The frame position head's (N, 6) predictions and their (N, 6) targets; None without that head.
+FramePositions = tuple[Tensor, Tensor] | None
 
 
 @functools.cache
@@ -85,12 +88,24 @@ class VisuomotorNet(nn.Module):
         self.decoder = nn.Linear(head.out_dim, DELTA_EE_DIM + NUM_GRIPPER_CLASSES + AUX_DIM)
         # Object position at the demo's end (`goal_head`): a training target only, never used to act.
         self.goal_decoder = nn.Linear(head.out_dim, POSITION_DIM) if config.goal_head else None
+        # EE and object positions from one frame's CNN map (`frame_position_head`): a training target only.
+        self.frame_position_decoder = (
+            nn.Linear(channels * height * width, AUX_DIM) if config.frame_position_head else None
+        )
 
     def encode(self, images: Tensor, state: Tensor) -> Tensor:
         """State representation s_t: (N, 3, H, W) images, (N, D_state) -> (N, D_s)."""
+        return self.encode_with_positions(images, state)[0]
+
+    def encode_with_positions(self, images: Tensor, state: Tensor) -> tuple[Tensor, Tensor | None]:
+        """s_t as `encode`, and the frame position head's (N, 6) EE and object positions read from the CNN
+        map alone (normalised like `observation.environment_state`); None for a net without that head."""
         fmap = self.cnn(images)
         tiled = state[:, :, None, None].expand(-1, -1, *self.map_size)
-        return torch.cat([fmap, tiled], dim=1).flatten(1)
+        s = torch.cat([fmap, tiled], dim=1).flatten(1)
+        if self.frame_position_decoder is None:
+            return s, None
+        return s, self.frame_position_decoder(fmap.flatten(1))
 
     def step(self, s: Tensor, memory: Memory | None) -> Memory:
         """One LSTM step: (B, D_s) and memory (or None for zeros) -> new memory (h, c); h is e_t."""
@@ -284,10 +299,12 @@ class VMCPolicy(PreTrainedPolicy):
             The total loss and its parts as floats.
         """
         if self.config.training_mode == "sequence":
-            outputs, action, aux = self._sequence_outputs(batch)
+            outputs, action, aux, frame_positions = self._sequence_outputs(batch)
         else:
-            outputs, action, aux = self._window_outputs(batch)
+            outputs, action, aux, frame_positions = self._window_outputs(batch)
         losses = supervised_losses(outputs, action, aux)
+        if frame_positions is not None:
+            losses.update(frame_position_losses(*frame_positions))
         regularization = self.net.head.regularization()
         loss = torch.stack(list(losses.values())).sum() + regularization
         info = {name: value.item() for name, value in losses.items()}
@@ -297,8 +314,11 @@ class VMCPolicy(PreTrainedPolicy):
             info[f"dropout_p_{i}"] = p
         return loss, info
 
-    def _window_outputs(self, batch: dict[str, Tensor]) -> tuple[tuple[Tensor, ...], Tensor, Tensor]:
-        """Decoded outputs (each (B, ...)) on the last step of each window, with its action and targets."""
+    def _window_outputs(
+        self, batch: dict[str, Tensor]
+    ) -> tuple[tuple[Tensor, ...], Tensor, Tensor, FramePositions]:
+        """Decoded outputs (each (B, ...)) on the last step of each window, with its action and targets, and
+        the frame position head's predictions and targets on every frame of the windows (or None)."""
         images, state, aux, action = (
             batch[self.image_key],
             batch[OBS_STATE],
@@ -311,13 +331,17 @@ class VMCPolicy(PreTrainedPolicy):
             action = action[:, -1]
         b, k = images.shape[:2]
         images = random_shift(images, self.config.image_shift_pad)
-        s = self.net.encode(images.flatten(0, 1), state.flatten(0, 1)).unflatten(0, (b, k))
-        e = self.net.unroll(s, batch.get(f"{OBS_STATE}_is_pad"))
+        s, positions = self.net.encode_with_positions(images.flatten(0, 1), state.flatten(0, 1))
+        e = self.net.unroll(s.unflatten(0, (b, k)), batch.get(f"{OBS_STATE}_is_pad"))
+        frame_positions = None if positions is None else (positions, aux.flatten(0, 1))
         # Masks are always drawn in training (concrete dropout must not depend on `self.training`).
-        return self.net.decode(e, stochastic=True), action, aux[:, -1]
+        return self.net.decode(e, stochastic=True), action, aux[:, -1], frame_positions
 
-    def _sequence_outputs(self, batch: dict[str, Tensor]) -> tuple[tuple[Tensor, ...], Tensor, Tensor]:
-        """Decoded outputs (each (N, ...)) on the N real frames of the chunks, with their actions and targets.
+    def _sequence_outputs(
+        self, batch: dict[str, Tensor]
+    ) -> tuple[tuple[Tensor, ...], Tensor, Tensor, FramePositions]:
+        """Decoded outputs (each (N, ...)) on the N real frames of the chunks, with their actions and targets,
+        and the frame position head's predictions and targets on those frames (or None).
 
         Only the real frames go through the CNN (once each); the LSTM runs over the whole chunk, from the
         memory `chunk_memory` says (stored: the state the frame before the chunk was last left in).
@@ -337,14 +361,15 @@ class VMCPolicy(PreTrainedPolicy):
         real = chunk_frames_mask(batch, images.shape[:2])
         group = torch.arange(images.shape[0], device=images.device)[:, None].expand_as(real)[real]
         frames = random_shift(images[real], self.config.image_shift_pad, group)
-        s_real = self.net.encode(frames, state[real])
+        s_real, positions = self.net.encode_with_positions(frames, state[real])
         s = s_real.new_zeros(*real.shape, s_real.shape[-1]).masked_scatter(real[..., None], s_real)
         e = self._unroll_chunks(s, real, batch)[real]
         targets = aux
         if self.config.goal_head:
             targets = torch.cat([aux, demo_end_object_position(aux, real)], dim=-1)
         outputs = self.net.decode(e, stochastic=True, with_goal=self.config.goal_head)
-        return outputs, action[real], targets[real]
+        frame_positions = None if positions is None else (positions, aux[real])
+        return outputs, action[real], targets[real], frame_positions
 
     def _unroll_chunks(self, s: Tensor, real: Tensor, batch: dict[str, Tensor]) -> Tensor:
         """The LSTM over (B, L, D_s) chunks -> (B, L, lstm_dim); with stored chunk memory, each chunk starts
@@ -455,6 +480,15 @@ def supervised_losses(outputs: tuple[Tensor, ...], action: Tensor, aux: Tensor) 
     if len(outputs) == 5:
         losses["loss_goal_pos"] = F.mse_loss(outputs[4], aux[:, AUX_DIM:])
     return losses
+
+
+def frame_position_losses(predicted: Tensor, aux: Tensor) -> dict[str, Tensor]:
+    """The frame position head's two losses, weighed like the auxiliary ones: MSE of (N, 6) predicted EE
+    and object positions against the (N, 6) targets of the same frames."""
+    return {
+        "loss_frame_ee_pos": F.mse_loss(predicted[:, :POSITION_DIM], aux[:, :POSITION_DIM]),
+        "loss_frame_obj_pos": F.mse_loss(predicted[:, POSITION_DIM:AUX_DIM], aux[:, POSITION_DIM:AUX_DIM]),
+    }
 
 
 def demo_end_object_position(aux: Tensor, real: Tensor) -> Tensor:
