@@ -30,9 +30,9 @@ class TrainPolicyConfig:
 
     Args:
         training_mode, chunk_length, goal_head: as the policies' config fields.
-        image_shift_pad, optimizer_lr, chunk_memory: the policies' own fields; None (the presets) leaves
-            the flag out, so the policy's default applies and a study made before these fields existed keeps
-            its fingerprints.
+        image_shift_pad, optimizer_lr, chunk_memory, frame_position_head: the policies' own fields; None
+            leaves the flag out, so the policy's default applies and a study made before these fields
+            existed keeps its fingerprints.
     """
 
     training_mode: str = "sequence"
@@ -41,6 +41,7 @@ class TrainPolicyConfig:
     image_shift_pad: int | None = None
     optimizer_lr: float | None = None
     chunk_memory: str | None = None
+    frame_position_head: bool | None = None
 
     def given(self) -> dict:
         """The fields passed to the policies (unset ones left out)."""

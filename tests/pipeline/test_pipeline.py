@@ -75,7 +75,8 @@ def test_presets_load_and_any_field_can_be_overridden(tmp_path: Path) -> None:
     widened = parse_config(["--task=push", "--preset=lite", "--foresight.foresight.action_noise=0.3"])
     assert "--foresight.action_noise=0.3" in {s.name: s for s in build_stages(widened)}["foresight_fc1"].argv
     # The policies' augmentation and learning rate: left out unless set (the policy's defaults apply).
-    assert not any(f in a for a in train.argv for f in ("image_shift_pad", "optimizer_lr", "chunk_memory"))
+    left_out = ("image_shift_pad", "optimizer_lr", "chunk_memory", "frame_position_head")
+    assert not any(f in a for a in train.argv for f in left_out)
     tuned = parse_config(
         [
             "--task=push",
@@ -83,6 +84,7 @@ def test_presets_load_and_any_field_can_be_overridden(tmp_path: Path) -> None:
             "--train.policy.image_shift_pad=0",
             "--train.policy.optimizer_lr=1e-4",
             "--train.policy.chunk_memory=zero",
+            "--train.policy.frame_position_head=true",
         ]
     )
     for stage in build_stages(tuned):
@@ -91,6 +93,7 @@ def test_presets_load_and_any_field_can_be_overridden(tmp_path: Path) -> None:
                 "--policy.image_shift_pad=0",
                 "--policy.optimizer_lr=0.0001",
                 "--policy.chunk_memory=zero",
+                "--policy.frame_position_head=true",
             } <= set(stage.argv)
     # Longer demos reach the collector, with whole-demo chunks to match; 100-step studies keep their commands.
     assert not any("episode_steps" in a for a in stages["collect"].argv)

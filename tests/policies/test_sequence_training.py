@@ -341,16 +341,21 @@ def test_goal_head_learns_the_object_position_at_each_demo_end() -> None:
         assert torch.equal(policy.select_action(obs), plain.select_action(obs))
 
 
-@pytest.mark.parametrize("training_mode", ["sequence", "window"])
-def test_frame_position_head_reads_positions_from_each_frames_cnn_map_alone(training_mode: str) -> None:
-    """Its two losses are the MSE of a linear read-out of each real frame's CNN map against that frame's
-    EE and object positions; they train the CNN, never the LSTM or the state path, and acting ignores it."""
+@pytest.mark.parametrize(
+    ("training_mode", "goal_head"), [("sequence", False), ("sequence", True), ("window", False)]
+)
+def test_frame_position_head_reads_positions_from_each_frames_cnn_map_alone(
+    training_mode: str, goal_head: bool
+) -> None:
+    """Its losses are the MSE of a linear read-out of each real frame's CNN map against that frame's EE and
+    object positions (with the goal head, also the object's at the chunk's end); they train the CNN, never
+    the LSTM or the state path, and acting ignores it."""
     batch = chunk_batch()
     if training_mode == "window":  # 4-frame windows, the last frame's action the label
         batch = {k: v[:, :4] for k, v in batch.items() if k not in ("index", "episode_index")}
         batch[ACTION] = batch[ACTION][:, -1]
         del batch[f"{ACTION}_is_pad"], batch[f"{OBS_STATE}_is_pad"]
-    kwargs = {"training_mode": training_mode, "image_shift_pad": 0}
+    kwargs = {"training_mode": training_mode, "image_shift_pad": 0, "goal_head": goal_head}
     policy = sequence_policy(frame_position_head=True, **kwargs)
     plain = sequence_policy(**kwargs)
     plain.load_state_dict({k: v for k, v in policy.state_dict().items() if "frame_position" not in k})
@@ -367,7 +372,13 @@ def test_frame_position_head_reads_positions_from_each_frames_cnn_map_alone(trai
         read_out = policy.net.frame_position_decoder(policy.net.cnn(frames).flatten(1))
     mse = torch.nn.functional.mse_loss
     assert info["loss_frame_ee_pos"] == pytest.approx(mse(read_out[:, :3], aux[:, :3]).item(), rel=1e-5)
-    assert info["loss_frame_obj_pos"] == pytest.approx(mse(read_out[:, 3:], aux[:, 3:]).item(), rel=1e-5)
+    assert info["loss_frame_obj_pos"] == pytest.approx(mse(read_out[:, 3:6], aux[:, 3:]).item(), rel=1e-5)
+    if goal_head:  # chunk 1 ends after 8 frames, the others after 12
+        object_end = batch[OBS_ENV_STATE][[0, 1, 2], [11, 7, 11], 3:]
+        goal = object_end[:, None].expand(-1, 12, -1)[real]
+        assert info["loss_frame_goal_pos"] == pytest.approx(mse(read_out[:, 6:], goal).item(), rel=1e-5)
+    else:
+        assert read_out.shape[1] == 6 and "loss_frame_goal_pos" not in info
 
     policy.zero_grad()
     _, _, _, (predicted, targets) = getattr(policy, f"_{training_mode}_outputs")(batch)

@@ -67,11 +67,12 @@ class VMCConfig(PreTrainedConfig):
             and place last (README). Needs sequence training on whole demos (`chunk_length` equal to every
             demo's length), so that each chunk's last frame is its demo's end; off by default (the paper).
         frame_position_head: beyond the paper: a linear head reads the end-effector and object positions
-            from each frame's CNN feature map alone (before the LSTM, without the state), two MSE losses
-            weighed like the auxiliary ones on every trained frame. The paper's auxiliary heads read the LSTM
-            embedding, which can answer from the carried memory (the expert's path so far) instead of the
-            image; this head makes the CNN find the cube in every frame. A training target only, never used
-            to act; off by default (the paper).
+            (with `goal_head` also the object's position at the demo's end, i.e. the target) from each
+            frame's CNN feature map alone (before the LSTM, without the state), MSE losses weighed like the
+            auxiliary ones on every trained frame. The paper's auxiliary heads read the LSTM embedding,
+            which can answer from the carried memory (the expert's path so far) instead of the image; this
+            head makes the CNN find the cube (and the target) in every frame. A training target only, never
+            used to act; off by default (the paper).
         image_shift_pad: training augmentation: each window's frames are shifted together by a random
             offset of up to this many pixels per axis (DrQ / RAD random shift); 0 disables it.
         optimizer_lr: Adam learning rate.

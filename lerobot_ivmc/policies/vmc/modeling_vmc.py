@@ -88,9 +88,11 @@ class VisuomotorNet(nn.Module):
         self.decoder = nn.Linear(head.out_dim, DELTA_EE_DIM + NUM_GRIPPER_CLASSES + AUX_DIM)
         # Object position at the demo's end (`goal_head`): a training target only, never used to act.
         self.goal_decoder = nn.Linear(head.out_dim, POSITION_DIM) if config.goal_head else None
-        # EE and object positions from one frame's CNN map (`frame_position_head`): a training target only.
+        # EE and object positions (and with the goal head, the object's at the demo's end) from one frame's
+        # CNN map (`frame_position_head`): a training target only.
+        frame_targets = AUX_DIM + (POSITION_DIM if config.goal_head else 0)
         self.frame_position_decoder = (
-            nn.Linear(channels * height * width, AUX_DIM) if config.frame_position_head else None
+            nn.Linear(channels * height * width, frame_targets) if config.frame_position_head else None
         )
 
     def encode(self, images: Tensor, state: Tensor) -> Tensor:
@@ -99,7 +101,8 @@ class VisuomotorNet(nn.Module):
 
     def encode_with_positions(self, images: Tensor, state: Tensor) -> tuple[Tensor, Tensor | None]:
         """s_t as `encode`, and the frame position head's (N, 6) EE and object positions read from the CNN
-        map alone (normalised like `observation.environment_state`); None for a net without that head."""
+        map alone (normalised like `observation.environment_state`; (N, 9) with the goal head: then the
+        object's position at the demo's end); None for a net without that head."""
         fmap = self.cnn(images)
         tiled = state[:, :, None, None].expand(-1, -1, *self.map_size)
         s = torch.cat([fmap, tiled], dim=1).flatten(1)
@@ -368,7 +371,7 @@ class VMCPolicy(PreTrainedPolicy):
         if self.config.goal_head:
             targets = torch.cat([aux, demo_end_object_position(aux, real)], dim=-1)
         outputs = self.net.decode(e, stochastic=True, with_goal=self.config.goal_head)
-        frame_positions = None if positions is None else (positions, aux[real])
+        frame_positions = None if positions is None else (positions, targets[real])
         return outputs, action[real], targets[real], frame_positions
 
     def _unroll_chunks(self, s: Tensor, real: Tensor, batch: dict[str, Tensor]) -> Tensor:
@@ -483,12 +486,16 @@ def supervised_losses(outputs: tuple[Tensor, ...], action: Tensor, aux: Tensor) 
 
 
 def frame_position_losses(predicted: Tensor, aux: Tensor) -> dict[str, Tensor]:
-    """The frame position head's two losses, weighed like the auxiliary ones: MSE of (N, 6) predicted EE
-    and object positions against the (N, 6) targets of the same frames."""
-    return {
+    """The frame position head's losses, weighed like the auxiliary ones: MSE of the (N, 6) predicted EE and
+    object positions against the (N, 6) targets of the same frames, and with the goal head (N, 9) a third
+    on the object's position at the demo's end."""
+    losses = {
         "loss_frame_ee_pos": F.mse_loss(predicted[:, :POSITION_DIM], aux[:, :POSITION_DIM]),
         "loss_frame_obj_pos": F.mse_loss(predicted[:, POSITION_DIM:AUX_DIM], aux[:, POSITION_DIM:AUX_DIM]),
     }
+    if predicted.shape[-1] > AUX_DIM:
+        losses["loss_frame_goal_pos"] = F.mse_loss(predicted[:, AUX_DIM:], aux[:, AUX_DIM:])
+    return losses
 
 
 def demo_end_object_position(aux: Tensor, real: Tensor) -> Tensor:
