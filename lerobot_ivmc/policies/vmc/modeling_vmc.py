@@ -25,7 +25,8 @@ NUM_GRIPPER_CLASSES = len(GRIPPER_COMMANDS)
 POSITION_DIM = AUX_DIM // 2
 # Rollout memory: the LSTM state (h, c), or the last K state representations (`rollout_memory`).
 Memory = tuple[Tensor, ...]
-# The frame position head's (N, 6) predictions and their (N, 6) targets; None without that head.
+# The frame position head's (N, 6) or, with the goal head, (N, 9) predictions and their targets; None
+# without that head.
 FramePositions = tuple[Tensor, Tensor] | None
 
 
@@ -97,18 +98,22 @@ class VisuomotorNet(nn.Module):
 
     def encode(self, images: Tensor, state: Tensor) -> Tensor:
         """State representation s_t: (N, 3, H, W) images, (N, D_state) -> (N, D_s)."""
-        return self.encode_with_positions(images, state)[0]
+        return self._state_representation(self.cnn(images), state)
 
     def encode_with_positions(self, images: Tensor, state: Tensor) -> tuple[Tensor, Tensor | None]:
-        """s_t as `encode`, and the frame position head's (N, 6) EE and object positions read from the CNN
-        map alone (normalised like `observation.environment_state`; (N, 9) with the goal head: then the
-        object's position at the demo's end); None for a net without that head."""
+        """s_t as `encode`, and (training only) the frame position head's (N, 6) EE and object positions
+        read from the CNN map alone (normalised like `observation.environment_state`; (N, 9) with the goal
+        head: then the object's position at the demo's end); None for a net without that head."""
         fmap = self.cnn(images)
-        tiled = state[:, :, None, None].expand(-1, -1, *self.map_size)
-        s = torch.cat([fmap, tiled], dim=1).flatten(1)
+        s = self._state_representation(fmap, state)
         if self.frame_position_decoder is None:
             return s, None
         return s, self.frame_position_decoder(fmap.flatten(1))
+
+    def _state_representation(self, fmap: Tensor, state: Tensor) -> Tensor:
+        """The CNN map (N, C, h, w) and the state tiled over it, flattened: (N, D_s)."""
+        tiled = state[:, :, None, None].expand(-1, -1, *self.map_size)
+        return torch.cat([fmap, tiled], dim=1).flatten(1)
 
     def step(self, s: Tensor, memory: Memory | None) -> Memory:
         """One LSTM step: (B, D_s) and memory (or None for zeros) -> new memory (h, c); h is e_t."""
@@ -473,29 +478,28 @@ def supervised_losses(outputs: tuple[Tensor, ...], action: Tensor, aux: Tensor) 
         aux: (N, 6) auxiliary targets (EE then object position, normalised), (N, 9) with the goal head's
             target (the object's position at the demo's end) appended.
     """
-    delta_ee, logits, ee_pos, obj_pos = outputs[:4]
-    losses = {
+    delta_ee, logits = outputs[:2]
+    return {
         "loss_delta_ee": F.mse_loss(delta_ee, action[:, :DELTA_EE_DIM]),
         "loss_gripper": F.cross_entropy(logits, gripper_labels(action[:, DELTA_EE_DIM])),
-        "loss_ee_pos": F.mse_loss(ee_pos, aux[:, :POSITION_DIM]),
-        "loss_obj_pos": F.mse_loss(obj_pos, aux[:, POSITION_DIM:AUX_DIM]),
+        **position_losses(outputs[2:], aux, "loss_"),
     }
-    if len(outputs) == 5:
-        losses["loss_goal_pos"] = F.mse_loss(outputs[4], aux[:, AUX_DIM:])
-    return losses
 
 
 def frame_position_losses(predicted: Tensor, aux: Tensor) -> dict[str, Tensor]:
-    """The frame position head's losses, weighed like the auxiliary ones: MSE of the (N, 6) predicted EE and
-    object positions against the (N, 6) targets of the same frames, and with the goal head (N, 9) a third
-    on the object's position at the demo's end."""
-    losses = {
-        "loss_frame_ee_pos": F.mse_loss(predicted[:, :POSITION_DIM], aux[:, :POSITION_DIM]),
-        "loss_frame_obj_pos": F.mse_loss(predicted[:, POSITION_DIM:AUX_DIM], aux[:, POSITION_DIM:AUX_DIM]),
+    """The frame position head's losses, weighed like the auxiliary ones: its (N, 6) or, with the goal
+    head, (N, 9) positions against the targets of the same frames (`position_losses`)."""
+    return position_losses(predicted.split(POSITION_DIM, dim=-1), aux, "loss_frame_")
+
+
+def position_losses(positions: tuple[Tensor, ...], aux: Tensor, prefix: str) -> dict[str, Tensor]:
+    """MSE of each predicted (N, 3) position, EE, object, then optionally the object's at the demo's end,
+    against its columns of the (N, 6) or (N, 9) targets; named `<prefix>ee_pos`, `obj_pos`, `goal_pos`."""
+    names = ("ee_pos", "obj_pos", "goal_pos")[: len(positions)]
+    return {
+        f"{prefix}{name}": F.mse_loss(position, aux[:, i * POSITION_DIM : (i + 1) * POSITION_DIM])
+        for i, (name, position) in enumerate(zip(names, positions, strict=True))
     }
-    if predicted.shape[-1] > AUX_DIM:
-        losses["loss_frame_goal_pos"] = F.mse_loss(predicted[:, AUX_DIM:], aux[:, AUX_DIM:])
-    return losses
 
 
 def demo_end_object_position(aux: Tensor, real: Tensor) -> Tensor:
