@@ -75,8 +75,11 @@ def test_presets_load_and_any_field_can_be_overridden(tmp_path: Path) -> None:
     widened = parse_config(["--task=push", "--preset=lite", "--foresight.foresight.action_noise=0.3"])
     assert "--foresight.action_noise=0.3" in {s.name: s for s in build_stages(widened)}["foresight_fc1"].argv
     # The policies' augmentation and learning rate: left out unless set (the policy's defaults apply).
-    left_out = ("image_shift_pad", "optimizer_lr", "chunk_memory", "frame_position_head")
+    left_out = ("image_shift_pad", "optimizer_lr", "chunk_memory")
     assert not any(f in a for a in train.argv for f in left_out)
+    # lite trains with the frame position head; paper (the paper's own recipe) leaves the flag out.
+    assert "--policy.frame_position_head=true" in train.argv
+    assert not any("frame_position_head" in a for a in paper_stages["train_vmc_fc1"].argv)
     tuned = parse_config(
         [
             "--task=push",
