@@ -46,20 +46,51 @@ def final_beliefs(record: dict) -> dict:
     if "believed_goal" in steps:
         row["believed_goal_to_believed_object_cm"] = cm(last("believed_goal"), last("believed_object"))
         row["believed_goal_to_target_cm"] = cm(last("believed_goal"), last("target"))
+        row.update(carry_beliefs(steps, cm))
     return row
+
+
+def carry_beliefs(steps: dict, cm) -> dict:
+    """For an episode that grasped the object: the believed goal's error at the start, the grasp and the
+    release (the first step after the grasp without it; the last step if never released), and the object's
+    distance from the target at the release (cm, table plane). Empty without a grasp."""
+    grasped = np.asarray(steps.get("grasped", []), dtype=bool)
+    if not grasped.any():
+        return {}
+    grasp = int(np.argmax(grasped))
+    dropped = np.flatnonzero(~grasped[grasp:])
+    release = grasp + int(dropped[0]) if dropped.size else len(grasped) - 1
+
+    def at(key: str, t: int) -> np.ndarray:
+        return np.asarray(steps[key][t], dtype=float)[PLANE]
+
+    return {
+        "grasp_step": grasp,
+        "release_step": release if dropped.size else None,
+        "believed_goal_to_target_at_start_cm": cm(at("believed_goal", 0), at("target", 0)),
+        "believed_goal_to_target_at_grasp_cm": cm(at("believed_goal", grasp), at("target", grasp)),
+        "believed_goal_to_target_at_release_cm": cm(at("believed_goal", release), at("target", release)),
+        "object_to_target_at_release_cm": cm(at("object", release), at("target", release)),
+        "believed_goal_to_object_at_release_cm": cm(at("believed_goal", release), at("object", release)),
+    }
 
 
 def summarise(rows: list[dict]) -> dict:
     """Medians over the episodes that fail again when rerun alone."""
     failures = [r for r in rows if not r["success_alone"]]
-    keys = [k for k in rows[0] if k.endswith(("_cm", "_units"))] if rows else []
+    successes = [r for r in rows if r["success_alone"]]
     return {
         "failures": len(failures),
-        "median_over_failures": {k: round(float(np.median([r[k] for r in failures])), 2) for k in keys}
-        if failures
-        else {},
+        "median_over_failures": medians(failures),
+        "median_over_successes": medians(successes),
         "episodes": rows,
     }
+
+
+def medians(rows: list[dict]) -> dict:
+    """Median of every distance and action figure over the rows that have it."""
+    keys = dict.fromkeys(k for r in rows for k in r if k.endswith(("_cm", "_units")))
+    return {k: round(float(np.median([r[k] for r in rows if k in r])), 2) for k in keys}
 
 
 def main() -> None:
@@ -79,6 +110,9 @@ def main() -> None:
     for row in rows:
         print(row)
     print(f"{summary['failures']} of {len(rows)} fail alone; medians: {summary['median_over_failures']}")
+    print(
+        f"medians over the {len(rows) - summary['failures']} that succeed: {summary['median_over_successes']}"
+    )
     if args.json:
         if args.json.exists():
             parser.error(f"{args.json} exists: give another --json path (results are never overwritten).")
