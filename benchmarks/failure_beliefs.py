@@ -7,8 +7,9 @@ scenes a BVMC failed in `lerobot-ivmc-eval`, and prints, at each episode's last 
 (x, y; cm): how far the object is from the target, how far the believed object is from the true one, how
 far the believed goal is from the believed object and from the target, and the mean |delta-EE action|
 (action units, gripper excluded) over the last 20 steps; with the goal head, for episodes that grasped
-the object, also the believed goal's error at the start, the grasp and the release. A policy that idles with its believed goal on its
-believed object, while the true object is elsewhere, believes the task done (docs/RESULTS.md, push).
+the object, also the believed goal's error at the start, the grasp and the release. A policy that idles
+with its believed goal on its believed object, while the true object is elsewhere, believes the task done
+(docs/RESULTS.md, push).
 
     for s in 0 3 4; do lerobot-ivmc-inspect --policy.path=<bvmc> --env.type=ivmc --env.task=push \\
         --env.split=test --env.episode_length=200 --episode_seed=$s --output_dir=<out>; done
