@@ -135,9 +135,11 @@ def main() -> None:
 
     meta = LeRobotDatasetMetadata(args.repo_id, root=args.root)
     episodes = list(range(min(args.episodes, meta.total_episodes)))
-    sequence = dict(training_mode="sequence", chunk_length=args.chunk_length)
+    # The paper's network in both modes (no goal or frame position head), as the README's figures.
+    paper_net = dict(goal_head=False, frame_position_head=False)
+    sequence = dict(training_mode="sequence", chunk_length=args.chunk_length, **paper_net)
     modes = [
-        Mode("window", BVMCConfig(device="cpu", training_mode="window"), args.window_batch),
+        Mode("window", BVMCConfig(device="cpu", training_mode="window", **paper_net), args.window_batch),
         Mode("sequence", BVMCConfig(device="cpu", **sequence), args.sequence_batch),
     ]
     if args.bf16:

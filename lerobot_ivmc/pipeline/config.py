@@ -31,8 +31,8 @@ class TrainPolicyConfig:
     Args:
         training_mode, chunk_length, goal_head: as the policies' config fields.
         image_shift_pad, optimizer_lr, chunk_memory, frame_position_head: the policies' own fields; None
-            leaves the flag out, so the policy's default applies and a study made before these fields
-            existed keeps its fingerprints.
+            leaves the flag out, so the policy's default applies (the training's fingerprint holds the
+            resolved policy config, so a changed default redoes it).
     """
 
     training_mode: str = "sequence"

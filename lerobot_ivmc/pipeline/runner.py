@@ -95,12 +95,15 @@ def study_lock(root: Path):
 
 
 def fingerprint(stage: Stage, upstream: dict[str, str]) -> str:
-    """Hash of what decides a stage's outputs: its command, its environment, its inputs' fingerprints."""
+    """Hash of what decides a stage's outputs: its command, its environment, its other settings, its inputs'
+    fingerprints."""
     payload = {
         "argv": stage.argv,
         "env": stage.env,
         "depends": {name: upstream[name] for name in stage.depends},
     }
+    if stage.settings:  # (only then, so that the stages without any keep their fingerprints)
+        payload["settings"] = stage.settings
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:16]
 
 

@@ -9,10 +9,13 @@ evaluated on the same test scenes. (The results table is written by the runner.)
 
 from __future__ import annotations
 
+import json
 import shutil
 import sys
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+
+from lerobot.configs.policies import PreTrainedConfig
 
 from lerobot_ivmc.envs import DEMO_EPISODE_STEPS
 from lerobot_ivmc.evaluation.perception_check import RECORD_FILE as PERCEPTION_RECORD
@@ -39,6 +42,8 @@ class Stage:
             checkpoint). None: a killed stage is redone from a clean folder.
         resume_marker: a file the partial output must hold for `resume_argv` to apply (a training's last
             checkpoint); None if any partial output will do.
+        settings: what decides the outputs beyond the command line (a training's policy config with the
+            defaults of the fields the command leaves out), so that a changed default redoes the stage.
     """
 
     name: str
@@ -49,6 +54,7 @@ class Stage:
     env: dict[str, str] = field(default_factory=dict)
     resume_argv: list[str] | None = None
     resume_marker: Path | None = None
+    settings: dict = field(default_factory=dict)
 
     def can_resume(self) -> bool:
         """Whether a killed run of this stage's config can be continued rather than redone."""
@@ -293,9 +299,16 @@ def train_stages(
                 # LeRobot's own resume: steps, schedule, optimiser and RNG states from the last checkpoint.
                 resume_argv=["lerobot-ivmc-train", f"--config_path={out / TRAIN_CONFIG}", "--resume=true"],
                 resume_marker=out / TRAIN_CONFIG,
+                settings=resolved_policy_config(policy_type, fc, t.policy.given()),
             )
         )
     return stages
+
+
+def resolved_policy_config(policy_type: str, fc: int, given: dict) -> dict:
+    """The policy config a training gets from `given` and the policy's current defaults, as JSON values."""
+    config = PreTrainedConfig.get_choice_class(policy_type)(device="cpu", num_fc_layers=fc, **given)
+    return json.loads(json.dumps(asdict(config), default=str))
 
 
 def perception_stage_name(training: str) -> str:

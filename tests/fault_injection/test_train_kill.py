@@ -33,9 +33,9 @@ def _train(out: Path, dataset: Path, *extra: str) -> list[str]:
 @pytest.mark.parametrize(
     "extra, env",
     [
-        ((), {}),
+        (("--policy.training_mode=window",), {}),
         (
-            ("--policy.training_mode=sequence", "--policy.chunk_length=20", "--policy.goal_head=true"),
+            ("--policy.chunk_length=20",),  # the defaults: whole demos, goal and frame position heads
             {"ACCELERATE_MIXED_PRECISION": "bf16"},
         ),
     ],

@@ -74,12 +74,18 @@ def test_presets_load_and_any_field_can_be_overridden(tmp_path: Path) -> None:
     assert not any("action_noise" in a for a in stages["foresight_fc1"].argv)
     widened = parse_config(["--task=push", "--preset=lite", "--foresight.foresight.action_noise=0.3"])
     assert "--foresight.action_noise=0.3" in {s.name: s for s in build_stages(widened)}["foresight_fc1"].argv
-    # The policies' augmentation and learning rate: left out unless set (the policy's defaults apply).
-    left_out = ("image_shift_pad", "optimizer_lr", "chunk_memory")
+    # The policies' augmentation and chunk memory: left out unless set (the policy's defaults apply, and the
+    # training's settings, part of its fingerprint, hold their values).
+    left_out = ("image_shift_pad", "chunk_memory")
     assert not any(f in a for a in train.argv for f in left_out)
-    # lite trains with the frame position head; paper (the paper's own recipe) leaves the flag out.
-    assert "--policy.frame_position_head=true" in train.argv
-    assert not any("frame_position_head" in a for a in paper_stages["train_vmc_fc1"].argv)
+    assert (train.settings["image_shift_pad"], train.settings["chunk_memory"]) == (4, "stored")
+    # lite trains with the frame position head at the studies' 3e-4; paper with the paper's network.
+    assert {"--policy.frame_position_head=true", "--policy.optimizer_lr=0.0003"} <= set(train.argv)
+    assert {"--policy.frame_position_head=false", "--policy.optimizer_lr=0.0003"} <= set(
+        paper_stages["train_vmc_fc1"].argv
+    )
+    assert train.settings["num_fc_layers"] == 1 and stages["train_bvmc_fc2"].settings["num_fc_layers"] == 2
+    assert stages["train_bvmc_fc1"].settings["num_samples"] == 50  # bvmc's own fields too
     tuned = parse_config(
         [
             "--task=push",

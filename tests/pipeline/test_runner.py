@@ -76,6 +76,12 @@ def test_finished_stages_are_skipped_and_a_changed_stage_reruns_with_its_success
     assert statuses(results) == {"collect": "skipped", "train": "ran", "eval": "ran"}
     assert runs(root) == ["train", "eval"]
     assert (root / "train" / "done").read_text() == "b"
+    # Same command, another setting outside it (a changed policy default): train and eval rerun too.
+    stages = chain(root, {"train": "b"})
+    stages[1].settings = {"optimizer_lr": 6e-4}
+    results = run_stages(root, stages, log=lambda _: None)
+    assert statuses(results) == {"collect": "skipped", "train": "ran", "eval": "ran"}
+    assert statuses(run_stages(root, stages, log=lambda _: None))["train"] == "skipped"
 
 
 def test_a_killed_stage_is_redone_from_a_clean_folder_and_finished_ones_are_kept(tmp_path: Path) -> None:
@@ -172,6 +178,12 @@ def test_a_killed_stage_with_a_checkpoint_is_continued_not_redone(tmp_path: Path
     assert statuses(run_stages(root, changed, log=lambda _: None))["train"] == "ran"
     assert runs(root) == ["train", "eval"]
     assert (root / "train" / "done").read_text() == "b"
+    # Same command, another setting outside it (a changed policy default): train and eval rerun too.
+    stages = chain(root, {"train": "b"})
+    stages[1].settings = {"optimizer_lr": 6e-4}
+    results = run_stages(root, stages, log=lambda _: None)
+    assert statuses(results) == {"collect": "skipped", "train": "ran", "eval": "ran"}
+    assert statuses(run_stages(root, stages, log=lambda _: None))["train"] == "skipped"
 
 
 def test_a_killed_stage_without_its_checkpoint_is_redone(tmp_path: Path) -> None:

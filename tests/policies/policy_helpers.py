@@ -28,8 +28,10 @@ def policy_features() -> tuple[dict[str, PolicyFeature], dict[str, PolicyFeature
 
 
 def make_config(cls: type[VMCConfig] = BVMCConfig, **kwargs) -> VMCConfig:
-    """A config of `cls` on CPU with the demo dataset's features."""
+    """A config of `cls` on CPU with the demo dataset's features: the paper's network (no goal or frame
+    position head) in window training (the K-frame batches of `make_batch`) unless the kwargs say else."""
     inputs, outputs = policy_features()
+    kwargs = {"training_mode": "window", "goal_head": False, "frame_position_head": False, **kwargs}
     return cls(device="cpu", input_features=inputs, output_features=outputs, **kwargs)
 
 

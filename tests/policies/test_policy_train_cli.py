@@ -27,7 +27,11 @@ def console_script(name: str) -> str:
     return str(script) if script.exists() else shutil.which(name)
 
 
-SEQUENCE = ("--policy.training_mode=sequence", "--policy.chunk_length=10")
+WINDOW = ("--policy.training_mode=window",)
+# The defaults (sequence training on whole demos, goal and frame position heads) on the 30-frame demos.
+WHOLE_DEMOS = ("--policy.chunk_length=30",)
+# Chunks shorter than the demos (stored chunk memory); the goal head needs whole demos.
+SHORT_CHUNKS = ("--policy.chunk_length=10", "--policy.goal_head=false")
 
 
 def train_command(
@@ -54,11 +58,12 @@ def train_command(
 @pytest.mark.parametrize(
     "command, policy_type, extra",
     [
-        ("lerobot-train", "vmc", ()),
-        ("lerobot-train", "bvmc", ()),
-        ("lerobot-ivmc-train", "bvmc", ()),
-        ("lerobot-train", "vmc", SEQUENCE),
-        ("lerobot-ivmc-train", "bvmc", SEQUENCE),
+        ("lerobot-train", "vmc", WINDOW),
+        ("lerobot-train", "bvmc", WINDOW),
+        ("lerobot-ivmc-train", "bvmc", WINDOW),
+        ("lerobot-train", "vmc", WHOLE_DEMOS),
+        ("lerobot-ivmc-train", "bvmc", WHOLE_DEMOS),
+        ("lerobot-ivmc-train", "bvmc", SHORT_CHUNKS),
     ],
 )
 def test_train_then_load_and_act(
@@ -78,7 +83,8 @@ def test_train_then_load_and_act(
     policy = get_policy_class(policy_type).from_pretrained(checkpoint)
     assert policy.config.type == policy_type
     # A sequence-trained policy rolls out with the carried memory it was trained with.
-    assert policy.config.rollout_memory == ("trajectory" if extra else "window")
+    assert policy.config.rollout_memory == ("window" if extra == WINDOW else "trajectory")
+    assert policy.config.goal_head == (extra == WHOLE_DEMOS)
     if policy_type == "bvmc":
         assert policy.config.dataset_size == 60, "N for the regularisers comes from the dataset"
         policy.config.num_samples = 5
@@ -98,7 +104,7 @@ def test_train_then_load_and_act(
     assert set(actions[..., 3].flatten().tolist()) <= {-1.0, 0.0, 1.0}
 
 
-@pytest.mark.parametrize("extra", [(), ("--policy.training_mode=sequence", "--policy.chunk_length=30")])
+@pytest.mark.parametrize("extra", [WINDOW, WHOLE_DEMOS])
 def test_regulariser_n_counts_only_the_episodes_trained_on(
     extra: tuple[str, ...], tiny_dataset: Path, tmp_path: Path
 ) -> None:

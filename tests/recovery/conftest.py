@@ -23,6 +23,7 @@ def tiny_bvmc(tmp_path_factory: pytest.TempPathFactory) -> Path:
         "lerobot-ivmc-train",
         "--policy.type=bvmc",
         "--policy.num_samples=8",
+        "--policy.chunk_length=30",  # the defaults (sequence training, both heads) on the 30-frame demos
         f"--dataset.repo_id={TINY_REPO_ID}",
         f"--dataset.root={dataset}",
         "--policy.device=cpu",

@@ -10,6 +10,7 @@ of the demo (`goal_head`) and one reading the positions from each frame's CNN ma
 
 import contextlib
 import functools
+from pathlib import Path
 
 import torch
 import torch.nn.functional as F  # noqa: N812
@@ -19,6 +20,17 @@ from torch import Tensor, nn
 
 from lerobot_ivmc.policies.vmc.configuration_vmc import AUX_DIM, DELTA_EE_DIM, GRIPPER_COMMANDS, VMCConfig
 from lerobot_ivmc.policies.vmc.stored_memory import StoredLSTMStates, lstm_cell_states
+
+# `from_pretrained` arguments that say where and how to fetch a checkpoint's files.
+HUB_KWARGS = (
+    "force_download",
+    "resume_download",
+    "proxies",
+    "token",
+    "cache_dir",
+    "local_files_only",
+    "revision",
+)
 
 NUM_GRIPPER_CLASSES = len(GRIPPER_COMMANDS)
 # One position (x, y, z) of `observation.environment_state`: the end effector's, then the object's.
@@ -454,6 +466,24 @@ class VMCPolicy(PreTrainedPolicy):
     def predict_action_chunk(self, batch: dict[str, Tensor], **kwargs) -> Tensor:
         """A chunk of one action, (B, 1, 4); advances the LSTM memory like `select_action`."""
         return self.select_action(batch)[:, None]
+
+    @classmethod
+    def from_pretrained(
+        cls, pretrained_name_or_path: str | Path, *, config: VMCConfig | None = None, **kwargs
+    ):
+        """LeRobot's loading, with a checkpoint saved before sequence training became the default read with
+        the network it was trained as (`lerobot_ivmc.policies.legacy_configs`)."""
+        from lerobot.configs.policies import PreTrainedConfig
+
+        from lerobot_ivmc.policies.legacy_configs import fill_legacy_defaults, saved_config_fields
+
+        hub_kwargs = {k: kwargs[k] for k in HUB_KWARGS if k in kwargs}
+        if config is None:
+            config = PreTrainedConfig.from_pretrained(pretrained_name_or_path, **hub_kwargs)
+        saved = saved_config_fields(pretrained_name_or_path, **hub_kwargs)
+        if saved is not None:
+            fill_legacy_defaults(config, saved)
+        return super().from_pretrained(pretrained_name_or_path, config=config, **kwargs)
 
     @classmethod
     def _load_as_safetensor(

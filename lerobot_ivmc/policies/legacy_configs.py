@@ -1,0 +1,50 @@
+"""Checkpoints saved before sequence training became the default keep acting as they were trained.
+
+A saved `config.json` holds every field the config had when it was saved; a field added later is filled
+from its current default when the file is read. Three such fields changed the network or its training
+when their defaults became sequence training with the goal and frame position heads (`training_mode`,
+`goal_head`, `frame_position_head`): a checkpoint whose file lacks them was trained with the values in
+`DEFAULTS_BEFORE_SEQUENCE`, which `fill_legacy_defaults` puts back.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+from huggingface_hub import hf_hub_download
+from huggingface_hub.constants import CONFIG_NAME
+from huggingface_hub.errors import HfHubHTTPError
+
+from lerobot_ivmc.policies.vmc.configuration_vmc import DEFAULTS_BEFORE_SEQUENCE, VMCConfig
+
+
+def saved_config_fields(pretrained_name_or_path: str | Path, **hub_kwargs) -> set[str] | None:
+    """The field names in a checkpoint's `config.json` (local folder or hub repo); None if unreadable."""
+    model_id = str(pretrained_name_or_path)
+    try:
+        if os.path.isdir(model_id):
+            path = Path(model_id) / CONFIG_NAME
+        else:
+            path = Path(hf_hub_download(repo_id=model_id, filename=CONFIG_NAME, **hub_kwargs))
+        return set(json.loads(path.read_text()))
+    except (OSError, ValueError, HfHubHTTPError):
+        return None  # LeRobot's own loading reports the missing or broken file
+
+
+def fill_legacy_defaults(config: VMCConfig, saved_fields: set[str]) -> list[str]:
+    """Set the fields of `DEFAULTS_BEFORE_SEQUENCE` that `saved_fields` lacks to their values then (and,
+    when that changed the training mode, a missing `rollout_memory` to the one it implies); return the
+    names changed."""
+    changed = []
+    for name, value in DEFAULTS_BEFORE_SEQUENCE.items():
+        if name not in saved_fields and getattr(config, name) != value:
+            setattr(config, name, value)
+            changed.append(name)
+    if "training_mode" in changed and "rollout_memory" not in saved_fields:
+        implied = "trajectory" if config.training_mode == "sequence" else "window"
+        if config.rollout_memory != implied:
+            config.rollout_memory = implied
+            changed.append("rollout_memory")
+    return changed
