@@ -9,9 +9,9 @@ subset gets its own N (plain `lerobot-train` only sees the whole dataset's metad
 `--policy.dataset_size` there). Use it for image (not video) datasets that fit in memory (a 64x64 frame
 takes 12 KiB: 100,000 frames take 1.2 GiB).
 
-Example:
+Example (the policies' defaults train on whole demos: 2 a batch, 10,000 steps, README):
     lerobot-ivmc-train --policy.type=bvmc --policy.device=cpu --dataset.repo_id=local/ivmc_pick_place \\
-        --dataset.root=data/ivmc_pick_place --batch_size=32 --steps=40000 --num_workers=0
+        --dataset.root=data/ivmc_pick_place --batch_size=2 --steps=10000 --num_workers=0
 """
 
 from __future__ import annotations
