@@ -48,6 +48,10 @@ def make_policy(
         input_features=inputs,
         output_features=outputs,
         rollout_memory=rollout_memory,
+        # Window training (its K = 4 training batches below) and the paper's network, as the README's figures.
+        training_mode="window",
+        goal_head=False,
+        frame_position_head=False,
         **extra,
     )
     return cls(config).eval()
