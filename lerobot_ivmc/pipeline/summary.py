@@ -1,0 +1,207 @@
+"""The reproduction across tasks: the studies' results next to the paper's Table I, and the goals checked.
+
+Reads the `<task>.json` each study writes (`lerobot-ivmc-pipeline`, `<out>/results/`) and builds, per task
+and #fc, the Table I rows with the paper's values, and one line of goals: BVMC + min unc above BVMC and
+above VMC on the task's last milestone (with the paired scene counts and McNemar's exact p), Fig. 3's
+Spearman rho at most -0.8, the AUROC of the maximum uncertainty, and the study's wall time within 3 hours.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+from lerobot_ivmc.envs import TASKS
+
+RHO_GOAL = -0.8
+WALL_TIME_GOAL_S = 3 * 3600.0
+
+
+class ResultsError(ValueError):
+    """A results file that is missing or not a study's results JSON; the message names it."""
+
+
+@dataclass
+class GoalCheck:
+    """The goals of one task and #fc (None where the study has no such row or value)."""
+
+    task: str
+    num_fc_layers: int
+    milestone: str
+    vmc: float | None
+    bvmc: float | None
+    min_unc: float | None
+    vs_bvmc: dict | None  # paired counts of min unc against BVMC
+    vs_vmc: dict | None
+    spearman_rho: float | None
+    auroc: float | None
+    wall_s: float | None
+    complete: bool
+
+    @property
+    def above_bvmc(self) -> bool | None:
+        return None if self.min_unc is None or self.bvmc is None else self.min_unc > self.bvmc
+
+    @property
+    def above_vmc(self) -> bool | None:
+        return None if self.min_unc is None or self.vmc is None else self.min_unc > self.vmc
+
+    @property
+    def rho_met(self) -> bool | None:
+        return None if self.spearman_rho is None else self.spearman_rho <= RHO_GOAL
+
+    @property
+    def wall_time_met(self) -> bool | None:
+        return None if self.wall_s is None or not self.complete else self.wall_s <= WALL_TIME_GOAL_S
+
+    def as_dict(self) -> dict:
+        out = {name: getattr(self, name) for name in self.__dataclass_fields__}
+        for name in ("above_bvmc", "above_vmc", "rho_met", "wall_time_met"):
+            out[name] = getattr(self, name)
+        return out
+
+
+def load_results(path: Path) -> dict:
+    """A study's results JSON, checked for the fields the summary reads."""
+    if not path.is_file():
+        raise ResultsError(f"{path} does not exist: run `lerobot-ivmc-pipeline --task=<task>` first.")
+    try:
+        results = json.loads(path.read_text())
+    except json.JSONDecodeError as error:
+        raise ResultsError(f"{path} is not valid JSON ({error}).") from error
+    missing = [key for key in ("task", "rows", "per_fc") if key not in results]
+    if missing:
+        raise ResultsError(f"{path} is not a study's results JSON (no {', '.join(missing)}).")
+    return results
+
+
+def find_results(results_dir: Path) -> list[Path]:
+    """The `<task>.json` files of the known tasks in `results_dir`, in the paper's task order."""
+    if not results_dir.is_dir():
+        raise ResultsError(f"--results_dir {results_dir} is not a folder.")
+    paths = [results_dir / f"{task}.json" for task in TASKS if (results_dir / f"{task}.json").is_file()]
+    if not paths:
+        raise ResultsError(f"{results_dir} holds none of {', '.join(f'{t}.json' for t in TASKS)}.")
+    return paths
+
+
+def main_rows(results: dict) -> list[dict]:
+    """The Table I rows of the main training seed (rows of extra seeds are reported apart)."""
+    seeds = {row.get("train_seed") for row in results["rows"]}
+    main_seed = min((s for s in seeds if s is not None), default=None)
+    return [row for row in results["rows"] if row.get("train_seed") == main_seed]
+
+
+def goal_checks(results: dict) -> list[GoalCheck]:
+    """One `GoalCheck` per #fc of the study."""
+    checks = []
+    rows = main_rows(results)
+    for fc in sorted({row["num_fc_layers"] for row in rows}):
+        by_method = {row["method"]: row for row in rows if row["num_fc_layers"] == fc}
+        milestone = list(next(iter(by_method.values()))["subtasks"])[-1]
+
+        def rate(method: str, milestone: str = milestone, by_method: dict = by_method) -> float | None:
+            row = by_method.get(method)
+            return None if row is None else row["subtasks"][milestone]["rate"]
+
+        paired = by_method.get("min_unc", {}).get("paired", {})
+        per_fc = results["per_fc"].get(str(fc), {})
+        checks.append(
+            GoalCheck(
+                task=results["task"],
+                num_fc_layers=fc,
+                milestone=milestone,
+                vmc=rate("vmc"),
+                bvmc=rate("none"),
+                min_unc=rate("min_unc"),
+                vs_bvmc=paired.get("vs_none"),
+                vs_vmc=paired.get("vs_vmc"),
+                spearman_rho=per_fc.get("fig3", {}).get("spearman_rho"),
+                auroc=per_fc.get("detection", {}).get("auroc"),
+                wall_s=results.get("total_wall_s"),
+                complete=bool(results.get("complete")),
+            )
+        )
+    return checks
+
+
+def _verdict(value: bool | None) -> str:
+    return "-" if value is None else ("met" if value else "**not met**")
+
+
+def _paired(counts: dict | None) -> str:
+    if counts is None:
+        return "-"
+    return f"{counts['only_second']} / {counts['only_first']}, p {counts['mcnemar_exact_p']:.2f}"
+
+
+def _pc(value: float | None) -> str:
+    return "-" if value is None else f"{value:.0f}"
+
+
+def table_i(results: dict) -> str:
+    """The study's Table I rows in the paper's layout: per #fc, each subtask's rate (the paper's value)."""
+    rows = main_rows(results)
+    subtasks = list(rows[0]["subtasks"])
+    lines = [
+        f"### {results['task']}",
+        "",
+        "| model | #fc | " + " | ".join(f"{s} [%] (paper)" for s in subtasks) + " |",
+        "|---|---|" + "---|" * len(subtasks),
+    ]
+    for row in rows:
+        cells = []
+        for subtask in subtasks:
+            ours = row["subtasks"][subtask]
+            paper = row.get("paper", {}).get(subtask)
+            cell = f"{ours['rate']:.0f} +- {ours['stderr']:.1f}"
+            cells.append(cell + (f" ({paper['rate']:.0f})" if paper else ""))
+        lines.append(f"| {row['label']} | {row['num_fc_layers']} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def goals_table(checks: list[GoalCheck]) -> str:
+    """One line per task and #fc: the goals, each with its figures and verdict."""
+    lines = [
+        "| task | #fc | milestone | VMC / BVMC / min unc [%] | min unc > BVMC (gained / lost, p) | "
+        "min unc > VMC (gained / lost, p) | Fig. 3 rho <= -0.8 | AUROC | study <= 3 h |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for c in checks:
+        rho = "-" if c.spearman_rho is None else f"{c.spearman_rho:.2f}: {_verdict(c.rho_met)}"
+        auroc = "-" if c.auroc is None else f"{c.auroc:.3f}"
+        wall = "-" if c.wall_s is None else f"{c.wall_s / 3600:.2f} h: {_verdict(c.wall_time_met)}"
+        if c.wall_s is not None and not c.complete:
+            wall = f"{c.wall_s / 3600:.2f} h so far"
+        rates = f"{_pc(c.vmc)} / {_pc(c.bvmc)} / {_pc(c.min_unc)}"
+        above_bvmc = f"{_verdict(c.above_bvmc)} ({_paired(c.vs_bvmc)})"
+        above_vmc = f"{_verdict(c.above_vmc)} ({_paired(c.vs_vmc)})"
+        lines.append(
+            f"| {c.task} | {c.num_fc_layers} | {c.milestone} | {rates} | {above_bvmc} | {above_vmc} | "
+            f"{rho} | {auroc} | {wall} |"
+        )
+    return "\n".join(lines)
+
+
+def summarize(paths: list[Path]) -> tuple[str, dict]:
+    """Markdown and JSON of the reproduction over the given results files."""
+    studies = [load_results(path) for path in paths]
+    checks = [check for study in studies for check in goal_checks(study)]
+    markdown = "\n\n".join(
+        [
+            "# The reproduction: Table I and the goals",
+            "## Goals per task and #fc",
+            goals_table(checks),
+            "## Table I (main training seed; the paper's value in brackets)",
+            *[table_i(study) for study in studies],
+        ]
+    )
+    summary = {
+        "studies": [
+            {"task": s["task"], "preset": s.get("preset"), "complete": s.get("complete"), "file": str(p)}
+            for s, p in zip(studies, paths, strict=True)
+        ],
+        "goals": [check.as_dict() for check in checks],
+    }
+    return markdown + "\n", summary

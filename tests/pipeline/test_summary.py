@@ -1,0 +1,147 @@
+"""`lerobot-ivmc-summary`: the studies' results across tasks, Table I next to the paper's, goals checked."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from lerobot_ivmc.pipeline.stages import console_script
+from lerobot_ivmc.pipeline.summary import ResultsError, goal_checks
+from lerobot_ivmc.scripts.summary import SummaryConfig, write_summary
+
+METHODS = {
+    "vmc": "VMC",
+    "none": "BVMC",
+    "rand": "BVMC + rand",
+    "init": "BVMC + init",
+    "min_unc": "BVMC + min unc",
+}
+
+
+def row(task: str, fc: int, method: str, rates: dict[str, float], seed: int = 1000, vs: dict | None = None):
+    """A Table I row as `lerobot-ivmc-pipeline` writes it to `<task>.json`."""
+    return {
+        "task": task,
+        "model": "VMC" if method == "vmc" else "BVMC",
+        "num_fc_layers": fc,
+        "method": method,
+        "label": METHODS[method],
+        "train_seed": seed,
+        "subtasks": {name: {"rate": rate, "stderr": 4.5, "n": 100} for name, rate in rates.items()},
+        "paper": {name: {"rate": 50.0, "stderr": 4.7} for name in rates},
+        "paired": vs or {},
+    }
+
+
+def paired(only_first: int, only_second: int, p: float) -> dict:
+    return {
+        "both": 50,
+        "only_first": only_first,
+        "only_second": only_second,
+        "neither": 10,
+        "mcnemar_exact_p": p,
+    }
+
+
+def study(task: str, fcs: dict[int, dict[str, float]], complete: bool, wall_s: float, rho: float) -> dict:
+    """A study whose #fc `fc` has task rates `fcs[fc]` per method (reach 100), with Fig. 3 and AUROC."""
+    rows = []
+    for fc, rates in fcs.items():
+        for method, rate in rates.items():
+            vs = (
+                {"vs_none": paired(1, 6, 0.12), "vs_vmc": paired(13, 22, 0.18)}
+                if method == "min_unc"
+                else None
+            )
+            rows.append(row(task, fc, method, {"reach": 100.0, "place": rate}, vs=vs))
+    # An extra training seed's rows are not Table I rows.
+    rows.append(row(task, 1, "vmc", {"reach": 100.0, "place": 0.0}, seed=2000))
+    per_fc = {str(fc): {"fig3": {"spearman_rho": rho}, "detection": {"auroc": 0.99}} for fc in fcs}
+    return {
+        "task": task,
+        "preset": "lite",
+        "complete": complete,
+        "rows": rows,
+        "per_fc": per_fc,
+        "total_wall_s": wall_s,
+    }
+
+
+def test_goals_and_table_i_per_task_and_fc(tmp_path: Path) -> None:
+    results = tmp_path / "results"
+    results.mkdir()
+    good = {"vmc": 66.0, "none": 70.0, "rand": 69.0, "init": 73.0, "min_unc": 75.0}
+    weak = {"vmc": 72.0, "none": 65.0, "rand": 64.0, "init": 71.0, "min_unc": 70.0}
+    (results / "pick_place.json").write_text(
+        json.dumps(study("pick_place", {1: weak, 2: good}, True, 9980, -0.88))
+    )
+    (results / "push.json").write_text(json.dumps(study("push", {1: good}, False, 4000, -0.5)))
+    (results / "notes.json").write_text("{}")  # not a task's results: ignored
+
+    markdown_path, json_path = write_summary(SummaryConfig(results_dir=results, output_dir=tmp_path / "out"))
+    goals = json.loads(json_path.read_text())["goals"]
+    assert [(g["task"], g["num_fc_layers"]) for g in goals] == [
+        ("push", 1),
+        ("pick_place", 1),
+        ("pick_place", 2),
+    ]
+    push, pp1, pp2 = goals
+    assert (pp2["vmc"], pp2["bvmc"], pp2["min_unc"]) == (66.0, 70.0, 75.0)  # the main seed's rows only
+    assert (pp2["above_bvmc"], pp2["above_vmc"], pp2["rho_met"], pp2["wall_time_met"]) == (
+        True,
+        True,
+        True,
+        True,
+    )
+    assert (pp1["above_bvmc"], pp1["above_vmc"]) == (True, False)
+    # An unfinished study has no wall-time verdict yet; rho -0.5 misses the goal.
+    assert (push["wall_time_met"], push["rho_met"]) == (None, False)
+
+    markdown = markdown_path.read_text()
+    assert (
+        "| pick_place | 2 | place | 66 / 70 / 75 | met (6 / 1, p 0.12) | met (22 / 13, p 0.18) |" in markdown
+    )
+    assert "| push | 1 | place | 66 / 70 / 75 |" in markdown and "1.11 h so far" in markdown
+    assert "| BVMC + min unc | 2 | 100 +- 4.5 (50) | 75 +- 4.5 (50) |" in markdown
+    assert "| VMC | 1 | 100 +- 4.5 (50) | 0 +- 4.5 (50) |" not in markdown  # the extra seed's row
+
+
+def test_missing_or_foreign_results_are_refused_with_what_to_do(tmp_path: Path) -> None:
+    with pytest.raises(ResultsError, match="is not a folder"):
+        write_summary(SummaryConfig(results_dir=tmp_path / "nowhere"))
+    with pytest.raises(ResultsError, match="holds none of push.json"):
+        write_summary(SummaryConfig(results_dir=tmp_path))
+    (tmp_path / "push.json").write_text("{not json")
+    with pytest.raises(ResultsError, match="push.json is not valid JSON"):
+        write_summary(SummaryConfig(results_dir=tmp_path))
+    (tmp_path / "push.json").write_text(json.dumps({"task": "push"}))
+    with pytest.raises(ResultsError, match="not a study's results JSON \\(no rows, per_fc\\)"):
+        write_summary(SummaryConfig(results_dir=tmp_path))
+    with pytest.raises(ValueError, match="--results_dir"):
+        write_summary(SummaryConfig())
+
+
+def test_a_study_without_recovery_rows_leaves_those_goals_open() -> None:
+    only_policies = study("pick_reach", {1: {"vmc": 100.0, "none": 100.0}}, True, 6000, -0.9)
+    (check,) = goal_checks(only_policies)
+    assert check.min_unc is None and check.above_bvmc is None and check.above_vmc is None
+
+
+def test_the_console_script_writes_the_summary_or_ends_with_one_line(tmp_path: Path) -> None:
+    results = tmp_path / "results"
+    results.mkdir()
+    good = {"vmc": 66.0, "none": 70.0, "rand": 69.0, "init": 73.0, "min_unc": 75.0}
+    (results / "pick_place.json").write_text(json.dumps(study("pick_place", {2: good}, True, 9980, -0.88)))
+    script = console_script("lerobot-ivmc-summary")
+    done = subprocess.run([script, f"--results_dir={results}"], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "| pick_place | 2 | place | 66 / 70 / 75 |" in done.stdout
+    assert (results / "reproduction.md").is_file() and (results / "reproduction.json").is_file()
+    bad = subprocess.run([script, f"--results_dir={tmp_path / 'nowhere'}"], capture_output=True, text=True)
+    assert bad.returncode == 2
+    assert (
+        bad.stderr.strip().splitlines()[-1] == f"error: --results_dir {tmp_path / 'nowhere'} is not a folder."
+    )
