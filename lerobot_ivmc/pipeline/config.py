@@ -29,7 +29,8 @@ class TrainPolicyConfig:
     """`--policy.*` fields of `lerobot-ivmc-train` the pipeline sets (the type and #fc come per run).
 
     Args:
-        training_mode, chunk_length, goal_head: as the policies' config fields.
+        training_mode, chunk_length: as the policies' config fields.
+        goal_head: as the policies' field; None follows the policy (on in sequence training).
         image_shift_pad, optimizer_lr, chunk_memory, frame_position_head: the policies' own fields; None
             leaves the flag out, so the policy's default applies (the training's fingerprint holds the
             resolved policy config, so a changed default redoes it).
@@ -37,7 +38,7 @@ class TrainPolicyConfig:
 
     training_mode: str = "sequence"
     chunk_length: int = 100
-    goal_head: bool = False
+    goal_head: bool | None = None
     image_shift_pad: int | None = None
     optimizer_lr: float | None = None
     chunk_memory: str | None = None
@@ -228,13 +229,14 @@ class PipelineConfig:
             )
         # The policy config's own checks (training mode, shift, ...), on the fields the trainings will get.
         try:
-            VMCConfig(device="cpu", **policy.given())
+            resolved = VMCConfig(device="cpu", **policy.given())
         except ValueError as error:
             raise ValueError(f"--train.policy.{error}") from error
-        if policy.goal_head and policy.chunk_length != demo_steps:  # (sequence mode: checked above)
+        if resolved.goal_head and policy.chunk_length != demo_steps:  # (sequence mode: checked above)
             raise ValueError(
-                "--train.policy.goal_head=true needs whole demos: --train.policy.training_mode=sequence and "
-                f"--train.policy.chunk_length={demo_steps} (--collect.dataset.episode_steps)."
+                "The goal head (--train.policy.goal_head, on by default in sequence training) needs whole "
+                f"demos: --train.policy.chunk_length={demo_steps} (--collect.dataset.episode_steps), or "
+                "--train.policy.goal_head=false."
             )
         if policy.optimizer_lr is not None and not policy.optimizer_lr > 0:
             raise ValueError(f"--train.policy.optimizer_lr must be positive, got {policy.optimizer_lr}.")

@@ -12,7 +12,7 @@ from __future__ import annotations
 import json
 import shutil
 import sys
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 from lerobot.configs.policies import PreTrainedConfig
@@ -306,9 +306,12 @@ def train_stages(
 
 
 def resolved_policy_config(policy_type: str, fc: int, given: dict) -> dict:
-    """The policy config a training gets from `given` and the policy's current defaults, as JSON values."""
+    """The fields of the policy's own config (not LeRobot's base ones, e.g. hub settings) a training gets
+    from `given` and the policy's current defaults, as JSON values."""
     config = PreTrainedConfig.get_choice_class(policy_type)(device="cpu", num_fc_layers=fc, **given)
-    return json.loads(json.dumps(asdict(config), default=str))
+    base = {f.name for f in fields(PreTrainedConfig)}
+    own = {name: value for name, value in asdict(config).items() if name not in base}
+    return json.loads(json.dumps(own, default=str))
 
 
 def perception_stage_name(training: str) -> str:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 from pathlib import Path
 
 from huggingface_hub import hf_hub_download
@@ -33,16 +34,25 @@ def saved_config_fields(pretrained_name_or_path: str | Path, **hub_kwargs) -> se
         return None  # LeRobot's own loading reports the missing or broken file
 
 
-def fill_legacy_defaults(config: VMCConfig, saved_fields: set[str]) -> list[str]:
+def command_line_policy_fields() -> set[str]:
+    """The `--policy.<field>=` names on this process's command line (what the user chose on purpose)."""
+    return {
+        arg.split("=", 1)[0].removeprefix("--policy.") for arg in sys.argv[1:] if arg.startswith("--policy.")
+    }
+
+
+def fill_legacy_defaults(
+    config: VMCConfig, saved_fields: set[str], keep: set[str] = frozenset()
+) -> list[str]:
     """Set the fields of `DEFAULTS_BEFORE_SEQUENCE` that `saved_fields` lacks to their values then (and,
-    when that changed the training mode, a missing `rollout_memory` to the one it implies); return the
-    names changed."""
+    when that changed the training mode, a missing `rollout_memory` to the one it implies), except the
+    fields in `keep` (set on the command line); return the names changed."""
     changed = []
     for name, value in DEFAULTS_BEFORE_SEQUENCE.items():
-        if name not in saved_fields and getattr(config, name) != value:
+        if name not in saved_fields and name not in keep and getattr(config, name) != value:
             setattr(config, name, value)
             changed.append(name)
-    if "training_mode" in changed and "rollout_memory" not in saved_fields:
+    if "training_mode" in changed and "rollout_memory" not in saved_fields | keep:
         implied = "trajectory" if config.training_mode == "sequence" else "window"
         if config.rollout_memory != implied:
             config.rollout_memory = implied

@@ -6,8 +6,10 @@ Same flags, same training loop, checkpoints and logs as `lerobot-train` (it runs
 `datasets` queries. It also sets N of Bayesian VMC's concrete dropout regularisers
 (`--policy.dataset_size`, when not given) to the frames actually trained on, so a `--dataset.episodes`
 subset gets its own N (plain `lerobot-train` only sees the whole dataset's metadata: pass
-`--policy.dataset_size` there). Use it for image (not video) datasets that fit in memory (a 64x64 frame
-takes 12 KiB: 100,000 frames take 1.2 GiB).
+`--policy.dataset_size` there). A run resumed from a checkpoint saved before sequence training became the
+default gets that checkpoint's training mode before its samples are built (plain `lerobot-train` builds
+them from today's defaults: resume such runs with `lerobot-ivmc-train`). Use it for image (not video)
+datasets that fit in memory (a 64x64 frame takes 12 KiB: 100,000 frames take 1.2 GiB).
 
 Example (the policies' defaults train on whole demos: 2 a batch, 10,000 steps, README):
     lerobot-ivmc-train --policy.type=bvmc --policy.device=cpu --dataset.repo_id=local/ivmc_pick_place \\
@@ -16,16 +18,40 @@ Example (the policies' defaults train on whole demos: 2 a batch, 10,000 steps, R
 
 from __future__ import annotations
 
+import logging
+
 from lerobot.datasets import factory
 from lerobot.scripts import lerobot_train
 
 from lerobot_ivmc.datasets.frame_cache import FrameCache
+from lerobot_ivmc.policies.legacy_configs import (
+    command_line_policy_fields,
+    fill_legacy_defaults,
+    saved_config_fields,
+)
+
+logger = logging.getLogger(__name__)
 
 
 def make_cached_dataset(cfg) -> FrameCache:
     """LeRobot's `make_dataset(cfg)`, its frames decoded into memory; fills N from the frames trained on."""
     if cfg.dataset.streaming:
         raise ValueError("lerobot-ivmc-train caches a local dataset; drop --dataset.streaming=true.")
+    # Resuming (or fine-tuning) a checkpoint saved before sequence training became the default: its samples
+    # are those it was trained with, so its config is completed before the dataset is built from it.
+    pretrained = getattr(cfg.policy, "pretrained_path", None)
+    if pretrained is not None and hasattr(cfg.policy, "training_mode"):
+        saved = saved_config_fields(pretrained)
+        changed = (
+            []
+            if saved is None
+            else fill_legacy_defaults(cfg.policy, saved, keep=command_line_policy_fields())
+        )
+        if changed:
+            values = ", ".join(f"{name}={getattr(cfg.policy, name)}" for name in changed)
+            logger.warning(
+                "%s predates sequence training as the default: training on with %s", pretrained, values
+            )
     # Sequence training makes lerobot-train sample with its EpisodeAwareSampler, which yields absolute frame
     # indices (`drop_n_last_frames` on the policy config).
     dataset = FrameCache(

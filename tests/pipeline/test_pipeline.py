@@ -189,7 +189,7 @@ def test_bad_input_is_refused_with_what_to_do(capsys: pytest.CaptureFixture) -> 
         ("--threshold.alpha=1", "--threshold.alpha must be in (0, 1)"),
         ("--train.policy.training_mode=chunks", "--train.policy.training_mode must be one of"),
         ("--train.policy.chunk_length=101", "--train.policy.chunk_length must be in [1, 100]"),
-        ("--train.policy.chunk_length=50", "goal_head=true needs whole demos"),
+        ("--train.policy.chunk_length=50", "needs whole demos: --train.policy.chunk_length=100"),
         ("--collect.dataset.episode_steps=250", "--collect.dataset.episode_steps must be in [100, 200]"),
         (
             "--collect.dataset.episode_steps=150",

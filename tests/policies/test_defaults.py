@@ -12,6 +12,7 @@ from lerobot.configs.policies import PreTrainedConfig
 from policy_helpers import make_config, observation_batch
 
 from lerobot_ivmc.policies import BVMCConfig, BVMCPolicy, VMCConfig, VMCPolicy
+from lerobot_ivmc.policies.legacy_configs import fill_legacy_defaults
 
 
 @pytest.mark.parametrize("cls", [VMCConfig, BVMCConfig])
@@ -73,3 +74,12 @@ def test_a_checkpoint_saved_now_keeps_every_field(tmp_path: Path) -> None:
     loaded = VMCPolicy.from_pretrained(tmp_path)
     assert loaded.config == policy.config
     assert loaded.net.goal_decoder is not None and loaded.net.frame_position_decoder is not None
+
+
+def test_fields_set_on_the_command_line_are_never_filled_in() -> None:
+    config = make_config(VMCConfig, training_mode="sequence", goal_head=True, frame_position_head=True)
+    saved = {"type", "rollout_memory"}  # a file from before training_mode and the heads existed
+    changed = fill_legacy_defaults(config, saved, keep={"frame_position_head"})
+    assert changed == ["training_mode", "goal_head"]
+    assert (config.training_mode, config.goal_head, config.frame_position_head) == ("window", False, True)
+    assert config.rollout_memory == "trajectory", "saved in the file: kept"

@@ -4,6 +4,7 @@ rollout."""
 
 from __future__ import annotations
 
+import json
 import shutil
 import subprocess
 import sys
@@ -28,6 +29,8 @@ def console_script(name: str) -> str:
 
 
 WINDOW = ("--policy.training_mode=window",)
+# The defaults before sequence training became the default: window training, the paper's network.
+PAPER_WINDOW = (*WINDOW, "--policy.goal_head=false", "--policy.frame_position_head=false")
 # The defaults (sequence training on whole demos, goal and frame position heads) on the 30-frame demos.
 WHOLE_DEMOS = ("--policy.chunk_length=30",)
 # Chunks shorter than the demos (stored chunk memory); the goal head needs whole demos.
@@ -118,3 +121,39 @@ def test_regulariser_n_counts_only_the_episodes_trained_on(
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     policy = get_policy_class("bvmc").from_pretrained(out / "checkpoints" / "000001" / "pretrained_model")
     assert policy.config.dataset_size == 30, "one 30-frame episode trained on, of the dataset's 60 frames"
+
+
+def test_a_run_saved_before_the_defaults_switch_resumes_with_its_own_training_mode(
+    tiny_dataset: Path, tmp_path: Path
+) -> None:
+    """A window run whose saved configs lack the fields added since (as every run before the switch did)
+    resumes as window training under `lerobot-ivmc-train`, although today's defaults say sequence."""
+    out = tmp_path / "train"
+    first = train_command("lerobot-ivmc-train", "bvmc", tiny_dataset, out, 2, "--batch_size=2", *PAPER_WINDOW)
+    result = subprocess.run(first, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    checkpoint = out / "checkpoints" / "last" / "pretrained_model"
+    for path, section in ((checkpoint / "config.json", None), (checkpoint / "train_config.json", "policy")):
+        saved = json.loads(path.read_text())
+        for name in ("training_mode", "goal_head", "frame_position_head"):
+            del (saved[section] if section else saved)[name]
+        path.write_text(json.dumps(saved))
+    resume = [
+        console_script("lerobot-ivmc-train"),
+        f"--config_path={checkpoint / 'train_config.json'}",
+        "--resume=true",
+        "--steps=4",
+        "--save_freq=4",
+    ]
+    result = subprocess.run(resume, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    # Its samples were built as windows: the config was completed before the dataset.
+    assert "predates sequence training as the default: training on with training_mode=window" in (
+        result.stdout + result.stderr
+    )
+    resumed = json.loads((out / "checkpoints" / "000004" / "pretrained_model" / "config.json").read_text())
+    assert (resumed["training_mode"], resumed["goal_head"], resumed["frame_position_head"]) == (
+        "window",
+        False,
+        False,
+    )
