@@ -238,8 +238,6 @@ class PipelineConfig:
                 f"demos: --train.policy.chunk_length={demo_steps} (--collect.dataset.episode_steps), or "
                 "--train.policy.goal_head=false."
             )
-        if policy.optimizer_lr is not None and not policy.optimizer_lr > 0:
-            raise ValueError(f"--train.policy.optimizer_lr must be positive, got {policy.optimizer_lr}.")
         if self.threshold.method not in THRESHOLD_METHODS:
             raise ValueError(
                 f"--threshold.method must be one of {THRESHOLD_METHODS}, got {self.threshold.method!r}."

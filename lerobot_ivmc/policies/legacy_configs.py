@@ -58,3 +58,12 @@ def fill_legacy_defaults(
             config.rollout_memory = implied
             changed.append("rollout_memory")
     return changed
+
+
+def complete_legacy_config(config: VMCConfig, pretrained_name_or_path: str | Path, **hub_kwargs) -> list[str]:
+    """`fill_legacy_defaults` of `config` from the checkpoint's saved config.json, leaving the fields set on
+    this process's command line as given; returns the names changed (none if the file is unreadable)."""
+    saved = saved_config_fields(pretrained_name_or_path, **hub_kwargs)
+    if saved is None:
+        return []
+    return fill_legacy_defaults(config, saved, keep=command_line_policy_fields())

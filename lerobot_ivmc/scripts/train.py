@@ -24,11 +24,7 @@ from lerobot.datasets import factory
 from lerobot.scripts import lerobot_train
 
 from lerobot_ivmc.datasets.frame_cache import FrameCache
-from lerobot_ivmc.policies.legacy_configs import (
-    command_line_policy_fields,
-    fill_legacy_defaults,
-    saved_config_fields,
-)
+from lerobot_ivmc.policies.legacy_configs import complete_legacy_config
 
 logger = logging.getLogger(__name__)
 
@@ -41,12 +37,7 @@ def make_cached_dataset(cfg) -> FrameCache:
     # are those it was trained with, so its config is completed before the dataset is built from it.
     pretrained = getattr(cfg.policy, "pretrained_path", None)
     if pretrained is not None and hasattr(cfg.policy, "training_mode"):
-        saved = saved_config_fields(pretrained)
-        changed = (
-            []
-            if saved is None
-            else fill_legacy_defaults(cfg.policy, saved, keep=command_line_policy_fields())
-        )
+        changed = complete_legacy_config(cfg.policy, pretrained)
         if changed:
             values = ", ".join(f"{name}={getattr(cfg.policy, name)}" for name in changed)
             logger.warning(

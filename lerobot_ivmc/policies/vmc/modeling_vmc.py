@@ -475,19 +475,14 @@ class VMCPolicy(PreTrainedPolicy):
         the network it was trained as (`lerobot_ivmc.policies.legacy_configs`)."""
         from lerobot.configs.policies import PreTrainedConfig
 
-        from lerobot_ivmc.policies.legacy_configs import (
-            command_line_policy_fields,
-            fill_legacy_defaults,
-            saved_config_fields,
-        )
+        from lerobot_ivmc.policies.legacy_configs import complete_legacy_config
 
         if config is None:  # as LeRobot's own, which passes every argument but `strict` to the config
             config_kwargs = {k: v for k, v in kwargs.items() if k != "strict"}
             config = PreTrainedConfig.from_pretrained(pretrained_name_or_path, **config_kwargs)
-        hub_kwargs = {k: kwargs[k] for k in HUB_KWARGS if k in kwargs}
-        saved = saved_config_fields(pretrained_name_or_path, **hub_kwargs)
-        if saved is not None:
-            fill_legacy_defaults(config, saved, keep=command_line_policy_fields())
+        complete_legacy_config(
+            config, pretrained_name_or_path, **{k: kwargs[k] for k in HUB_KWARGS if k in kwargs}
+        )
         return super().from_pretrained(pretrained_name_or_path, config=config, **kwargs)
 
     @classmethod
