@@ -15,7 +15,8 @@ sys.path.insert(0, str(Path(__file__).parents[1] / "policies"))  # policy_helper
 
 from policy_helpers import TINY_REPO_ID, build_expert_dataset  # noqa: E402
 
-STEPS = 40
+STEPS = 100_000  # never reached: the run is killed after its first checkpoint, however fast the machine
+MORE_STEPS = 10  # the resumed run's schedule ends this many steps after the checkpoint it resumes from
 
 
 def _train(out: Path, dataset: Path, *extra: str) -> list[str]:
@@ -56,14 +57,18 @@ def test_killed_training_resumes_from_its_last_checkpoint(tmp_path: Path, extra:
     process.send_signal(signal.SIGKILL)
     process.wait()
     assert first.exists(), "the run died before its first checkpoint"
-    assert not (out / "checkpoints" / f"{STEPS:06d}").exists(), "killed too late to test a resume"
+    resumed_from = json.loads(
+        (out / "checkpoints" / "last" / "training_state" / "training_step.json").read_text()
+    )
+    end = resumed_from["step"] + MORE_STEPS
 
+    # The resumed run keeps the saved config; only its schedule is shortened so that it ends.
     config = out / "checkpoints" / "last" / "pretrained_model" / "train_config.json"
     result = subprocess.run(
-        [_train(out, dataset)[0], f"--config_path={config}", "--resume=true"],
+        [_train(out, dataset)[0], f"--config_path={config}", "--resume=true", f"--steps={end}"],
         capture_output=True, text=True, timeout=600, env=env,
     )  # fmt: skip
     assert result.returncode == 0, result.stderr[-3000:]
-    final = out / "checkpoints" / f"{STEPS:06d}"
+    final = out / "checkpoints" / f"{end:06d}"
     assert (final / "pretrained_model" / "model.safetensors").exists()
-    assert json.loads((final / "training_state" / "training_step.json").read_text())["step"] == STEPS
+    assert json.loads((final / "training_state" / "training_step.json").read_text())["step"] == end
