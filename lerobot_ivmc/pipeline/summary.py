@@ -4,6 +4,8 @@ Reads the `<task>.json` each study writes (`lerobot-ivmc-pipeline`, `<out>/resul
 and #fc, the Table I rows with the paper's values, and one line of goals: BVMC + min unc above BVMC and
 above VMC on the task's last milestone (with the paired scene counts and McNemar's exact p), Fig. 3's
 Spearman rho at most -0.8, the AUROC of the maximum uncertainty, and the study's wall time within 3 hours.
+Where a study trained extra seeds (`--train.extra_seeds`), the training noise: VMC's and BVMC's rate per
+training seed next to min unc's, so a reader sees whether a margin exceeds what another seed changes.
 """
 
 from __future__ import annotations
@@ -124,6 +126,55 @@ def goal_checks(results: dict) -> list[GoalCheck]:
     return checks
 
 
+def training_noise(results: dict) -> list[dict]:
+    """Per #fc with extra training seeds: VMC's and BVMC's last-milestone rate per seed, and min unc's
+    (main seed) with whether it is above every seed's VMC and BVMC."""
+    seed_rows = results.get("training_seeds", {}).get("rows", [])
+    lines = []
+    for check in goal_checks(results):
+        per_model: dict[str, dict[int, float]] = {"VMC": {}, "BVMC": {}}
+        for row in seed_rows:
+            if row["num_fc_layers"] == check.num_fc_layers and row["model"] in per_model:
+                per_model[row["model"]][row["train_seed"]] = row["subtasks"][check.milestone]["rate"]
+        if not any(len(rates) > 1 for rates in per_model.values()):
+            continue
+        no_recovery = [*per_model["VMC"].values(), *per_model["BVMC"].values()]
+        lines.append(
+            {
+                "task": check.task,
+                "num_fc_layers": check.num_fc_layers,
+                "milestone": check.milestone,
+                "vmc_per_seed": per_model["VMC"],
+                "bvmc_per_seed": per_model["BVMC"],
+                "min_unc": check.min_unc,
+                "min_unc_above_every_seed": None
+                if check.min_unc is None
+                else check.min_unc > max(no_recovery),
+            }
+        )
+    return lines
+
+
+def noise_table(lines: list[dict]) -> str:
+    """One line per task and #fc with extra training seeds."""
+
+    def per_seed(rates: dict[int, float]) -> str:
+        return ", ".join(f"{rate:.0f} (seed {seed})" for seed, rate in rates.items()) or "-"
+
+    table = [
+        "| task | #fc | milestone | VMC [%] per training seed | BVMC [%] per training seed | min unc [%] "
+        "(main seed) | above every seed's VMC and BVMC |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for line in lines:
+        table.append(
+            f"| {line['task']} | {line['num_fc_layers']} | {line['milestone']} | "
+            f"{per_seed(line['vmc_per_seed'])} | {per_seed(line['bvmc_per_seed'])} | "
+            f"{_pc(line['min_unc'])} | {_verdict(line['min_unc_above_every_seed'])} |"
+        )
+    return "\n".join(table)
+
+
 def _verdict(value: bool | None) -> str:
     return "-" if value is None else ("met" if value else "**not met**")
 
@@ -186,11 +237,21 @@ def summarize(paths: list[Path]) -> tuple[str, dict]:
     """Markdown and JSON of the reproduction over the given results files."""
     studies = [load_results(path) for path in paths]
     checks = [check for study in studies for check in goal_checks(study)]
+    noise = [line for study in studies for line in training_noise(study)]
+    noise_section = (
+        [
+            "## Training noise: the rate without recovery per training seed",
+            noise_table(noise),
+        ]
+        if noise
+        else []
+    )
     markdown = "\n\n".join(
         [
             "# The reproduction: Table I and the goals",
             "## Goals per task and #fc",
             goals_table(checks),
+            *noise_section,
             "## Table I (main training seed; the paper's value in brackets)",
             *[table_i(study) for study in studies],
         ]
@@ -201,5 +262,6 @@ def summarize(paths: list[Path]) -> tuple[str, dict]:
             for s, p in zip(studies, paths, strict=True)
         ],
         "goals": [check.as_dict() for check in checks],
+        "training_noise": noise,
     }
     return markdown + "\n", summary

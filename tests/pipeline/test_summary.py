@@ -145,3 +145,35 @@ def test_the_console_script_writes_the_summary_or_ends_with_one_line(tmp_path: P
     assert (
         bad.stderr.strip().splitlines()[-1] == f"error: --results_dir {tmp_path / 'nowhere'} is not a folder."
     )
+
+
+def test_training_noise_sets_min_unc_against_every_seed_without_recovery(tmp_path: Path) -> None:
+    good = {"vmc": 66.0, "none": 70.0, "rand": 69.0, "init": 73.0, "min_unc": 75.0}
+    results = study("pick_place", {1: good, 2: good}, True, 9980, -0.88)
+    results["training_seeds"] = {
+        "rows": [
+            row("pick_place", 2, "vmc", {"reach": 100.0, "place": 66.0}),
+            row("pick_place", 2, "vmc", {"reach": 100.0, "place": 60.0}, seed=2000),
+            row("pick_place", 2, "none", {"reach": 100.0, "place": 70.0}),
+            row("pick_place", 2, "none", {"reach": 100.0, "place": 76.0}, seed=2000),
+        ]
+    }
+    (tmp_path / "pick_place.json").write_text(json.dumps(results))
+    markdown_path, json_path = write_summary(SummaryConfig(results_dir=tmp_path))
+
+    # Only #fc = 2 had a second seed; min unc's 75 is above the main seed's BVMC but not the other seed's.
+    (noise,) = json.loads(json_path.read_text())["training_noise"]
+    assert (noise["num_fc_layers"], noise["min_unc"], noise["min_unc_above_every_seed"]) == (2, 75.0, False)
+    assert noise["vmc_per_seed"] == {"1000": 66.0, "2000": 60.0}
+    assert (
+        "| pick_place | 2 | place | 66 (seed 1000), 60 (seed 2000) | 70 (seed 1000), 76 (seed 2000) | 75 | "
+        "**not met** |" in markdown_path.read_text()
+    )
+
+
+def test_no_training_noise_section_without_extra_seeds(tmp_path: Path) -> None:
+    good = {"vmc": 66.0, "none": 70.0, "min_unc": 75.0}
+    (tmp_path / "push.json").write_text(json.dumps(study("push", {1: good}, True, 9000, -0.9)))
+    markdown_path, json_path = write_summary(SummaryConfig(results_dir=tmp_path))
+    assert json.loads(json_path.read_text())["training_noise"] == []
+    assert "Training noise" not in markdown_path.read_text()
