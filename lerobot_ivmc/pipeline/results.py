@@ -12,6 +12,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 from lerobot_ivmc.evaluation.compare import EVAL_INFO_FILE, paired_outcomes
+from lerobot_ivmc.evaluation.fig3 import most_negative_rho
 from lerobot_ivmc.evaluation.perception_check import DRIVERS as PERCEPTION_DRIVERS
 from lerobot_ivmc.pipeline.config import POLICY_TYPES, PipelineConfig
 from lerobot_ivmc.pipeline.paper_table import PAPER_TABLE
@@ -295,6 +296,7 @@ def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageR
             "fig3": {
                 "episodes": fig3_info["run"]["n_episodes"],
                 "spearman_rho": finite(binned["spearman_rho"]),
+                "spearman_rho_best": finite(most_negative_rho(binned["mean_u"], binned["success_rate"])),
                 "mean_u": binned["mean_u"],
                 "success_rate": binned["success_rate"],
                 "count": binned["count"],
@@ -331,6 +333,10 @@ def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageR
     for fc, entry in per_fc.items():
         det, rho = entry["detection"], entry["fig3"]["spearman_rho"]
         rho_text = "n/a" if rho is None else f"{rho:.2f}"
+        if rho is not None and entry["fig3"]["spearman_rho_best"] is not None:
+            rho_text += (
+                f" (the most negative its bins' rates allow: {entry['fig3']['spearman_rho_best']:.2f})"
+            )
         auroc_text = "n/a" if det["auroc"] is None else f"{det['auroc']:.3f}"
         lines.append(
             f"\n#fc = {fc}: Fig. 3 over {entry['fig3']['episodes']} test episodes, Spearman rho {rho_text} "

@@ -177,3 +177,15 @@ def test_no_training_noise_section_without_extra_seeds(tmp_path: Path) -> None:
     markdown_path, json_path = write_summary(SummaryConfig(results_dir=tmp_path))
     assert json.loads(json_path.read_text())["training_noise"] == []
     assert "Training noise" not in markdown_path.read_text()
+
+
+def test_rho_is_shown_with_the_bound_its_bins_allow(tmp_path: Path) -> None:
+    good = {"vmc": 66.0, "none": 70.0, "min_unc": 75.0}
+    results = study("push", {1: good}, True, 9000, -0.7977)
+    # A perfect split, 7 bins at 100% and 3 at 0%: rho cannot go below -0.80 with these ties.
+    results["per_fc"]["1"]["fig3"].update(mean_u=list(range(10)), success_rate=[1.0] * 7 + [0.0] * 3)
+    (tmp_path / "push.json").write_text(json.dumps(results))
+    markdown_path, json_path = write_summary(SummaryConfig(results_dir=tmp_path))
+    (goal,) = json.loads(json_path.read_text())["goals"]
+    assert goal["rho_met"] is False and goal["spearman_rho_best"] == pytest.approx(-0.7977, abs=1e-4)
+    assert "| -0.80: **not met** (best attainable -0.80) |" in markdown_path.read_text()
