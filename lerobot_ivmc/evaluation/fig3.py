@@ -27,7 +27,7 @@ def success_by_uncertainty_bins(
     mean_u = [float(u[b].mean()) for b in bins]
     rate = [float(ok[b].mean()) for b in bins]
     rho, p = (np.nan, np.nan)
-    if len(bins) > 2 and np.ptp(mean_u) > 0 and np.ptp(rate) > 0:
+    if _rho_defined(mean_u, rate):
         result = stats.spearmanr(mean_u, rate)
         rho, p = float(result.statistic), float(result.pvalue)
     return {
@@ -47,11 +47,16 @@ def most_negative_rho(mean_u: Sequence[float], success_rate: Sequence[float]) ->
     for 7 and 3 bins of 10), so a rho at this bound means the uncertainty orders the bins perfectly. NaN
     when either is constant."""
     rate = np.asarray(success_rate, dtype=np.float64)
-    if len(rate) <= 2 or np.ptp(mean_u) <= 0 or np.ptp(rate) <= 0:
+    if not _rho_defined(mean_u, rate):
         return float("nan")
     return float(
         stats.spearmanr(np.sort(np.asarray(mean_u, dtype=np.float64)), np.sort(rate)[::-1]).statistic
     )
+
+
+def _rho_defined(mean_u: Sequence[float], success_rate: Sequence[float]) -> bool:
+    """Whether Spearman's rho over the bins is defined: more than two bins, neither u nor success constant."""
+    return len(success_rate) > 2 and np.ptp(mean_u) > 0 and np.ptp(success_rate) > 0
 
 
 def plot_success_by_uncertainty(binned: dict, path: Path, title: str) -> Path:

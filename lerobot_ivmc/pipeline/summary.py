@@ -16,6 +16,7 @@ from pathlib import Path
 
 from lerobot_ivmc.envs import TASKS
 from lerobot_ivmc.evaluation.fig3 import most_negative_rho
+from lerobot_ivmc.pipeline.results import finite
 
 RHO_GOAL = -0.8
 WALL_TIME_GOAL_S = 3 * 3600.0
@@ -125,8 +126,8 @@ def goal_checks(results: dict) -> list[GoalCheck]:
                 min_unc=rate("min_unc"),
                 vs_bvmc=paired.get("vs_none"),
                 vs_vmc=paired.get("vs_vmc"),
-                spearman_rho=_number(fig3.get("spearman_rho")),
-                spearman_rho_best=_number(best),
+                spearman_rho=finite(fig3.get("spearman_rho")),
+                spearman_rho_best=finite(best),
                 auroc=per_fc.get("detection", {}).get("auroc"),
                 wall_s=results.get("total_wall_s"),
                 complete=bool(results.get("complete")),
@@ -135,12 +136,13 @@ def goal_checks(results: dict) -> list[GoalCheck]:
     return checks
 
 
-def training_noise(results: dict) -> list[dict]:
-    """Per #fc with extra training seeds: VMC's and BVMC's last-milestone rate per seed, and min unc's
-    (main seed) with whether it is above every seed's VMC and BVMC."""
+def training_noise(results: dict, checks: list[GoalCheck]) -> list[dict]:
+    """Per #fc with extra training seeds (`checks`: the study's `goal_checks`): VMC's and BVMC's
+    last-milestone rate per seed, and min unc's (main seed) with whether it is above every seed's VMC and
+    BVMC."""
     seed_rows = results.get("training_seeds", {}).get("rows", [])
     lines = []
-    for check in goal_checks(results):
+    for check in checks:
         per_model: dict[str, dict[int, float]] = {"VMC": {}, "BVMC": {}}
         for row in seed_rows:
             if row["num_fc_layers"] == check.num_fc_layers and row["model"] in per_model:
@@ -182,11 +184,6 @@ def noise_table(lines: list[dict]) -> str:
             f"{_pc(line['min_unc'])} | {_verdict(line['min_unc_above_every_seed'])} |"
         )
     return "\n".join(table)
-
-
-def _number(value: float | None) -> float | None:
-    """None for a missing or undefined (NaN) value."""
-    return None if value is None or value != value else float(value)
 
 
 def _verdict(value: bool | None) -> str:
@@ -252,8 +249,13 @@ def goals_table(checks: list[GoalCheck]) -> str:
 def summarize(paths: list[Path]) -> tuple[str, dict]:
     """Markdown and JSON of the reproduction over the given results files."""
     studies = [load_results(path) for path in paths]
-    checks = [check for study in studies for check in goal_checks(study)]
-    noise = [line for study in studies for line in training_noise(study)]
+    checks_per_study = [goal_checks(study) for study in studies]
+    checks = [check for study_checks in checks_per_study for check in study_checks]
+    noise = [
+        line
+        for study, study_checks in zip(studies, checks_per_study, strict=True)
+        for line in training_noise(study, study_checks)
+    ]
     noise_section = (
         [
             "## Training noise: the rate without recovery per training seed",
