@@ -29,6 +29,9 @@ MANIFEST_FILE = "pipeline.json"
 LOCK_FILE = ".pipeline.lock"
 STAGES_DIR = "stages"
 LOGS_DIR = "logs"
+# While a stage runs, its log's modification time is refreshed this often (seconds), so that a killed run's
+# time counts up to its kill even when the command writes nothing for a long while (a quiet collection).
+HEARTBEAT_S = 30.0
 
 
 class PipelineError(RuntimeError):
@@ -155,7 +158,8 @@ def run_stages(
 
 
 def killed_wall_s(record: dict, log_path: Path) -> float:
-    """Wall time the killed runs of a stage spent, from their record's start to their log's last write."""
+    """Wall time the killed runs of a stage spent, from their record's start to their log's last write or
+    heartbeat (at most `HEARTBEAT_S` before the kill)."""
     if "started" not in record or not log_path.exists():
         return record.get("wall_s_before", 0.0)
     return record.get("wall_s_before", 0.0) + max(0.0, log_path.stat().st_mtime - record["started"])
@@ -172,9 +176,12 @@ def run_command(stage: Stage, log_path: Path, resume: bool = False) -> float:
         env = [f"{key}={value}" for key, value in stage.env.items()]
         log_file.write(("\n[resumed] " if resume else "") + " ".join([*env, *command]) + "\n\n")
         log_file.flush()
-        returncode = subprocess.run(
-            argv, stdout=log_file, stderr=subprocess.STDOUT, env={**os.environ, **stage.env}
-        ).returncode
+        returncode = wait_with_heartbeat(
+            subprocess.Popen(
+                argv, stdout=log_file, stderr=subprocess.STDOUT, env={**os.environ, **stage.env}
+            ),
+            log_path,
+        )
     wall = time.perf_counter() - start
     if returncode != 0:
         tail = log_path.read_text().splitlines()[-5:]
@@ -186,3 +193,17 @@ def run_command(stage: Stage, log_path: Path, resume: bool = False) -> float:
     if not stage.done_file.exists():
         raise PipelineError(f"Stage {stage.name} exited without writing {stage.done_file}; see {log_path}.")
     return wall
+
+
+def wait_with_heartbeat(process: subprocess.Popen, log_path: Path) -> int:
+    """Wait for `process`, touching `log_path` every `HEARTBEAT_S`; kill it if the wait is interrupted."""
+    try:
+        while True:
+            try:
+                return process.wait(timeout=HEARTBEAT_S)
+            except subprocess.TimeoutExpired:
+                os.utime(log_path)
+    except BaseException:
+        process.kill()
+        process.wait()
+        raise

@@ -135,8 +135,9 @@ def resumable_train(root: Path, sleep: float) -> list[Stage]:
     return stages
 
 
-def kill_during_train(tmp_path: Path, root: Path, script_body: str) -> None:
-    """Run `script_body` (a run of the chain in `root`) in a process and SIGKILL it while train runs."""
+def kill_during_train(tmp_path: Path, root: Path, script_body: str, after: float = 0.2) -> None:
+    """Run `script_body` (a run of the chain in `root`) in a process and SIGKILL it while train runs,
+    `after` seconds past its checkpoint."""
     script = tmp_path / "run.py"
     script.write_text(
         f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r})\n"
@@ -149,7 +150,7 @@ def kill_during_train(tmp_path: Path, root: Path, script_body: str) -> None:
     deadline = time.monotonic() + 120
     while not (root / "train" / "ckpt").exists() and time.monotonic() < deadline:
         time.sleep(0.1)
-    time.sleep(0.2)
+    time.sleep(after)
     os.killpg(process.pid, signal.SIGKILL)
     process.wait(timeout=30)
 
@@ -184,6 +185,19 @@ def test_a_killed_stage_with_a_checkpoint_is_continued_not_redone(tmp_path: Path
     results = run_stages(root, stages, log=lambda _: None)
     assert statuses(results) == {"collect": "skipped", "train": "ran", "eval": "ran"}
     assert statuses(run_stages(root, stages, log=lambda _: None))["train"] == "skipped"
+
+
+def test_a_killed_quiet_stage_counts_its_time_up_to_the_kill(tmp_path: Path) -> None:
+    """A command that writes nothing for a long while (a collection without progress output) still has its
+    killed run's time counted: the runner refreshes the log's time while the command runs."""
+    root = tmp_path / "study"
+    root.mkdir()
+    body = "import lerobot_ivmc.pipeline.runner as r; r.HEARTBEAT_S = 0.1\n"
+    kill_during_train(tmp_path, root, body + "run_stages(root, resumable_train(root, 60))\n", after=2.0)
+    run_stages(root, resumable_train(root, 60), log=lambda _: None)
+    record = json.loads((root / STAGES_DIR / "train.json").read_text())
+    # 0.5 s to its checkpoint's log line, then 2 s without output before the kill.
+    assert record["status"] == "done" and record["wall_s"] >= 2.0
 
 
 def test_a_killed_stage_without_its_checkpoint_is_redone(tmp_path: Path) -> None:
