@@ -134,6 +134,9 @@ def plot_detection(
     if failed.any() and (~failed).any():
         fpr, tpr, _ = roc_curve(failed, scores)
         ax.plot(fpr, tpr, color="tab:red", label=f"u (AUROC {auroc(scores, failed):.2f})")
+    else:
+        missing = "failure" if not failed.any() else "success"
+        ax.text(0.5, 0.5, f"no {missing} among these episodes:\nROC undefined", ha="center", va="center")
     ax.plot([0, 1], [0, 1], color="grey", ls=":", lw=1)
     ax.set_xlabel("false-positive rate (successes flagged)")
     ax.set_ylabel("true-positive rate (failures flagged)")

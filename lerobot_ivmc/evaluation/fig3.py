@@ -74,13 +74,14 @@ def plot_success_by_uncertainty(binned: dict, path: Path, title: str) -> Path:
     ax.set_title(title, fontsize=9)
     rho, best = binned["spearman_rho"], binned.get("spearman_rho_best", float("nan"))
     bound = "" if np.isnan(best) else f" (best attainable {best:.2f})"
-    ax.text(
-        0.97,
-        0.95,
-        f"Spearman rho = {rho:.2f}{bound}\n{binned['num_episodes']} episodes, {len(binned['count'])} bins",
+    rho_text = "undefined (success the same in every bin)" if np.isnan(rho) else f"{rho:.2f}{bound}"
+    ax.text(  # bottom left: empty when success falls with u, as when it stays flat at the top
+        0.03,
+        0.05,
+        f"Spearman rho = {rho_text}\n{binned['num_episodes']} episodes, {len(binned['count'])} bins",
         transform=ax.transAxes,
-        ha="right",
-        va="top",
+        ha="left",
+        va="bottom",
         fontsize=8,
     )
     ax.grid(alpha=0.3)
