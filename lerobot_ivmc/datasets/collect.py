@@ -46,6 +46,7 @@ from lerobot.datasets.utils import STATS_PATH, write_json
 from tqdm import tqdm
 
 from lerobot_ivmc.datasets import rollout, staging
+from lerobot_ivmc.datasets.collection_record import spec_render_style
 from lerobot_ivmc.datasets.features import (
     ACTION_KEY,
     DEMO_FPS,
@@ -69,6 +70,12 @@ from lerobot_ivmc.envs import (
     gym_id,
 )
 from lerobot_ivmc.envs.fetch_env import check_image_size
+from lerobot_ivmc.envs.render_styles import (
+    DEFAULT_RENDER_STYLE,
+    LEGACY_RENDER_STYLE,
+    RENDER_STYLES,
+    check_render_style,
+)
 from lerobot_ivmc.envs.scenes import SPLITS
 
 logger = logging.getLogger(__name__)
@@ -90,6 +97,8 @@ class CollectConfig:
         repo_id: dataset id (``<hub user>/<name>`` to push); default ``local/ivmc_<task>``.
         split: scene split the demonstrations come from: "train" (policy training), "val" or "test".
         image_size: camera image height and width, in pixels.
+        render_style: how the camera image is drawn (`fetch_env.RENDER_STYLES`); recorded in the dataset's
+            `meta/ivmc_collection.json`, from which `lerobot-ivmc-train` records it in the checkpoint.
         video: store the camera as mp4 video instead of PNG frames (slower to decode when training).
         num_workers: parallel recording processes; 0 records in this process.
         seed: base seed from which every attempt's scene seed is derived.
@@ -109,6 +118,7 @@ class CollectConfig:
     repo_id: str | None = None
     split: str = "train"
     image_size: int = 64
+    render_style: str = DEFAULT_RENDER_STYLE
     video: bool = False
     num_workers: int = 2
     seed: int = 0
@@ -125,6 +135,7 @@ class CollectConfig:
         if self.split not in SPLITS:
             raise ValueError(f"Unknown split {self.split!r}; choose one of {SPLITS}.")
         check_image_size("image_size", self.image_size)
+        check_render_style("render_style", self.render_style)
         if self.num_workers < 0:
             raise ValueError(f"num_workers must be >= 0, got {self.num_workers}.")
         if self.seed < 0:
@@ -151,9 +162,12 @@ class CollectConfig:
             if self.action_noise > 0
             else {}
         )
+        # Datasets of the Fetch XML's look keep the spec they had before render styles existed.
+        style = {} if self.render_style == LEGACY_RENDER_STYLE else {"render_style": self.render_style}
         return staging.normalise(
             {
                 **noise,
+                **style,
                 "task": self.task,
                 "gym_id": gym_id(self.task),
                 "split": self.split,
@@ -265,6 +279,7 @@ def _resume_hint(cfg: CollectConfig, spec: dict) -> str:
         )
     args = f"--task {spec['task']} --split {spec['split']} --seed {spec['seed']}"
     args += f" --image-size {spec['image_size']}"
+    args += f" --render-style {spec_render_style(spec)}"
     args += " --video" * bool(spec.get("video"))
     args += f" --action-noise {spec['action_noise']}" if spec.get("action_noise") else ""
     if spec.get("episode_steps", DEMO_EPISODE_STEPS) != DEMO_EPISODE_STEPS:
@@ -366,7 +381,16 @@ def _plan(start: int, need: int, successes: dict, failures: set) -> list[int]:
 
 def _recorder_args(cfg: CollectConfig, episodes_dir: Path) -> tuple:
     """The arguments of `rollout.Recorder` (and of `rollout.init_worker`, which builds one per worker)."""
-    return (cfg.task, cfg.image_size, cfg.split, cfg.seed, episodes_dir, cfg.action_noise, cfg.episode_steps)
+    return (
+        cfg.task,
+        cfg.image_size,
+        cfg.split,
+        cfg.seed,
+        episodes_dir,
+        cfg.action_noise,
+        cfg.episode_steps,
+        cfg.render_style,
+    )
 
 
 def _make_pool(cfg: CollectConfig, episodes_dir: Path) -> multiprocessing.pool.Pool:
@@ -523,6 +547,9 @@ def _parse_args(argv: list[str] | None) -> CollectConfig:
     parser.add_argument("--repo-id", default=None, help="dataset id (default: local/ivmc_<task>)")
     parser.add_argument("--split", default="train", choices=SPLITS, help="scene split of the demos")
     parser.add_argument("--image-size", type=int, default=64, help="camera height and width in pixels")
+    parser.add_argument(
+        "--render-style", default=DEFAULT_RENDER_STYLE, choices=tuple(RENDER_STYLES), help="how frames look"
+    )
     parser.add_argument("--video", action="store_true", help="store the camera as mp4 instead of PNG")
     parser.add_argument("--num-workers", type=int, default=2, help="recording processes (0: in-process)")
     parser.add_argument("--seed", type=int, default=0, help="base seed of the attempts' scene seeds")

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from lerobot_ivmc.datasets.collect import CollectConfig
 from lerobot_ivmc.envs import DEMO_EPISODE_STEPS
+from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE
 
 
 @dataclass
@@ -25,6 +26,7 @@ class DemoEnvConfig:
         task: task name (push, pick_place, pick_reach).
         split: scene split of the demos ("train" for policy training).
         image_size: camera height and width in pixels.
+        render_style: how the camera image is drawn ("fast" or "fetch", `fetch_env.RENDER_STYLES`).
 
     The task has no default: the command refuses to run without it.
     """
@@ -32,6 +34,7 @@ class DemoEnvConfig:
     task: str = ""
     split: str = "train"
     image_size: int = 64
+    render_style: str = DEFAULT_RENDER_STYLE
 
 
 @dataclass
@@ -96,6 +99,7 @@ class RecordDemosConfig:
             repo_id=self.dataset.repo_id,
             split=self.env.split,
             image_size=self.env.image_size,
+            render_style=self.env.render_style,
             video=self.dataset.video,
             num_workers=self.num_workers,
             seed=self.seed,

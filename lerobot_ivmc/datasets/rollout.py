@@ -15,6 +15,7 @@ import numpy as np
 from lerobot_ivmc.datasets import staging
 from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, make_task_env
 from lerobot_ivmc.envs.fetch_env import DELTA_EE_DIM, IvmcFetchEnv
+from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE
 from lerobot_ivmc.envs.scene_model import CAMERA_NAME
 from lerobot_ivmc.experts import WaypointExpert, make_expert, run_expert_episode
 
@@ -65,6 +66,7 @@ class Recorder:
         episodes_dir: where finished attempts are staged.
         action_noise: std of the noise on the executed delta-EE command (`ActionNoise`); 0 for none.
         episode_steps: steps of every demo (the expert holds its final pose once done).
+        render_style: how the camera image is drawn (`fetch_env.RENDER_STYLES`).
     """
 
     task: str
@@ -74,11 +76,16 @@ class Recorder:
     episodes_dir: Path
     action_noise: float = 0.0
     episode_steps: int = DEMO_EPISODE_STEPS
+    render_style: str = DEFAULT_RENDER_STYLE
 
     def __post_init__(self) -> None:
         # Demos always last `episode_steps` steps: success does not end them.
         self.env: IvmcFetchEnv = make_task_env(
-            self.task, image_size=self.image_size, split=self.split, terminate_on_success=False
+            self.task,
+            image_size=self.image_size,
+            split=self.split,
+            terminate_on_success=False,
+            render_style=self.render_style,
         )
         self.expert: WaypointExpert = make_expert(self.env)
 
@@ -129,12 +136,13 @@ def init_worker(
     episodes_dir: Path,
     action_noise: float,
     episode_steps: int = DEMO_EPISODE_STEPS,
+    render_style: str = DEFAULT_RENDER_STYLE,
 ) -> None:
     """Pool initializer: build the worker's env once. Ctrl-C is left to the parent, which stops the pool."""
     global _worker_recorder
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _worker_recorder = Recorder(
-        task, image_size, split, base_seed, Path(episodes_dir), action_noise, episode_steps
+        task, image_size, split, base_seed, Path(episodes_dir), action_noise, episode_steps, render_style
     )
 
 

@@ -10,6 +10,7 @@ from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_IMAGES, OBS_STATE
 
 from lerobot_ivmc.envs import MAX_EPISODE_STEPS, check_task, gym_id
 from lerobot_ivmc.envs.fetch_env import OBS_TYPES, check_image_size
+from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE, check_render_style
 from lerobot_ivmc.envs.scene_model import CAMERA_NAME
 from lerobot_ivmc.envs.scenes import SPLITS
 
@@ -28,6 +29,8 @@ class IvmcEnv(EnvConfig):
         obs_type: "pixels_agent_pos" (camera + proprioception) or "state" (no camera).
         image_size: side of the square camera image, in pixels.
         render_size: side of the frames rendered into eval videos, in pixels.
+        render_style: how frames are drawn ("fast" or "fetch", `fetch_env.RENDER_STYLES`); a policy runs in
+            the style its training data was collected in, which its checkpoint records.
         split: scene setups to draw from; evaluation uses the held-out "test" scenes.
         terminate_on_success: end an episode as soon as the task succeeds.
     """
@@ -38,6 +41,7 @@ class IvmcEnv(EnvConfig):
     obs_type: str = "pixels_agent_pos"
     image_size: int = 64
     render_size: int = 256
+    render_style: str = DEFAULT_RENDER_STYLE
     split: str = "test"
     terminate_on_success: bool = True
     features: dict[str, PolicyFeature] = field(
@@ -65,6 +69,7 @@ class IvmcEnv(EnvConfig):
                 raise ValueError(f"env.{name} must be positive, got {getattr(self, name)}.")
         for name in ("image_size", "render_size"):
             check_image_size(f"env.{name}", getattr(self, name))
+        check_render_style("env.render_style", self.render_style)
         if self.split not in (*SPLITS, "all"):
             raise ValueError(f"Unknown split {self.split!r}; choose one of {(*SPLITS, 'all')}.")
         if self.obs_type == "pixels_agent_pos":
@@ -86,6 +91,7 @@ class IvmcEnv(EnvConfig):
             "obs_type": self.obs_type,
             "image_size": self.image_size,
             "render_size": self.render_size,
+            "render_style": self.render_style,
             "split": self.split,
             "terminate_on_success": self.terminate_on_success,
             "max_episode_steps": self.episode_length,

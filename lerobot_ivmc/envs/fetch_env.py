@@ -27,6 +27,7 @@ from gymnasium.utils import EzPickle  # noqa: E402
 from gymnasium_robotics.utils import mujoco_utils  # noqa: E402
 
 from lerobot_ivmc.envs import scene_model  # noqa: E402
+from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE, RENDER_STYLES, check_render_style  # noqa: E402
 from lerobot_ivmc.envs.scenes import Grid, Scene, cell_jitter, scenes_of_split  # noqa: E402
 
 logger = logging.getLogger(__name__)
@@ -44,10 +45,12 @@ FINGER_JOINTS = ("robot0:l_gripper_finger_joint", "robot0:r_gripper_finger_joint
 FINGER_GEOMS = ("robot0:l_gripper_finger_link", "robot0:r_gripper_finger_link")
 GRIP_SITE = "robot0:grip"
 OBS_TYPES = ("pixels_agent_pos", "state")
-# Largest camera image and render() frame side, in pixels. MuJoCo renders offscreen into a framebuffer of
-# the model's `vis.global_.offwidth` x `offheight` (640 x 480 in the Fetch XML); the env enlarges it to the
-# sizes it is asked for, up to this bound, which every OpenGL implementation's renderbuffers allow.
+# Largest camera image and render() frame side, in pixels, which every OpenGL implementation's renderbuffers
+# allow. Each frame size gets its own renderer whose offscreen framebuffer is exactly that size: MuJoCo
+# would otherwise render into the model's `vis.global_.offwidth` x `offheight` (640 x 480 in the Fetch
+# XML), and clearing and resolving that buffer cost most of a 64-px frame (the pixels are the same).
 MAX_IMAGE_SIZE = 2048
+
 
 GRIPPER_CLOSE, GRIPPER_NOOP, GRIPPER_OPEN = -1, 0, 1
 POSITION_SCALE = 0.05  # metres per unit of action, as in gymnasium-robotics Fetch
@@ -78,6 +81,7 @@ class IvmcFetchEnv(gym.Env, EzPickle):
         split: which scene setups `reset` draws from: "train", "val", "test" or "all".
         terminate_on_success: end the episode when the task succeeds (evaluation); demos keep going.
         render_mode: only "rgb_array" is supported.
+        render_style: how camera images and `render()` frames are drawn, a key of `RENDER_STYLES`.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 25}
@@ -98,14 +102,18 @@ class IvmcFetchEnv(gym.Env, EzPickle):
         split: str = "train",
         terminate_on_success: bool = True,
         render_mode: str | None = "rgb_array",
+        render_style: str = DEFAULT_RENDER_STYLE,
     ):
-        EzPickle.__init__(self, obs_type, image_size, render_size, split, terminate_on_success, render_mode)
+        EzPickle.__init__(
+            self, obs_type, image_size, render_size, split, terminate_on_success, render_mode, render_style
+        )
         if obs_type not in OBS_TYPES:
             raise ValueError(f"Unknown obs_type {obs_type!r}; choose one of {OBS_TYPES}.")
         for name, size in (("image_size", image_size), ("render_size", render_size)):
             check_image_size(name, size)
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"Unsupported render_mode {render_mode!r}; only 'rgb_array' is available.")
+        check_render_style("render_style", render_style)
         self.obs_type = obs_type
         self.image_size = int(image_size)
         self.render_size = int(render_size)
@@ -114,12 +122,9 @@ class IvmcFetchEnv(gym.Env, EzPickle):
         self._scene_order = np.random.default_rng(_SCENE_ORDER_SEED).permutation(len(self.scenes))
         self.terminate_on_success = terminate_on_success
         self.render_mode = render_mode
+        self.render_style = render_style
 
         self.model = scene_model.build_model(self.object_shape, self.target_radius)
-        # Enlarge the offscreen framebuffer to the largest frame rendered; smaller frames are unaffected.
-        framebuffer = self.model.vis.global_
-        framebuffer.offwidth = max(framebuffer.offwidth, self.image_size, self.render_size)
-        framebuffer.offheight = max(framebuffer.offheight, self.image_size, self.render_size)
         self.data = mujoco.MjData(self.model)
         self._renderers: dict[int, mujoco.Renderer] = {}
         self._object_geom = self.model.geom(scene_model.OBJECT_BODY).id
@@ -348,18 +353,29 @@ class IvmcFetchEnv(gym.Env, EzPickle):
 
     def _render(self, size: int) -> np.ndarray:
         if size not in self._renderers:
-            try:
-                self._renderers[size] = mujoco.Renderer(self.model, size, size)
-            except mujoco.FatalError as error:
-                raise RuntimeError(
-                    "MuJoCo could not create an offscreen renderer "
-                    f"(MUJOCO_GL={os.environ.get('MUJOCO_GL')!r}). "
-                    "Set MUJOCO_GL=egl (or osmesa) in the environment before anything imports mujoco; "
-                    "lerobot_ivmc sets it only if mujoco was not imported first."
-                ) from error
+            self._renderers[size] = self._make_renderer(size)
         renderer = self._renderers[size]
         renderer.update_scene(self.data, camera=scene_model.CAMERA_NAME)
+        style = RENDER_STYLES[self.render_style]
+        renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = style.shadows
+        renderer.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = style.reflections
         return renderer.render().copy()
+
+    def _make_renderer(self, size: int) -> mujoco.Renderer:
+        """A renderer of `size` x `size` frames whose offscreen framebuffer is that size, in this style."""
+        # MuJoCo's rendering context takes its framebuffer's size and multisampling from the model's visual
+        # settings when it is created; they do not affect the physics.
+        self.model.vis.global_.offwidth = self.model.vis.global_.offheight = size
+        self.model.vis.quality.offsamples = RENDER_STYLES[self.render_style].multisamples
+        try:
+            return mujoco.Renderer(self.model, size, size)
+        except mujoco.FatalError as error:
+            raise RuntimeError(
+                "MuJoCo could not create an offscreen renderer "
+                f"(MUJOCO_GL={os.environ.get('MUJOCO_GL')!r}). "
+                "Set MUJOCO_GL=egl (or osmesa) in the environment before anything imports mujoco; "
+                "lerobot_ivmc sets it only if mujoco was not imported first."
+            ) from error
 
 
 def check_image_size(name: str, size: Any) -> None:

@@ -2,7 +2,8 @@
 
 A checkpoint's `config.json` records the features it was trained on (`input_features`,
 `output_features`). `check_policy_matches_env` compares them with the features the env config produces,
-as LeRobot derives them (`env_to_policy_features`), before the first step: a 64-pixel policy on
+as LeRobot derives them (`env_to_policy_features`), and the render style of its training frames with the
+env's, before the first step: a 64-pixel policy on
 `--env.image_size=32` would otherwise fail with a tensor-size error deep inside the CNN, and a pixel policy
 on `--env.obs_type=state` with a `KeyError`. The error is a `ValueError`, so the plugin's CLIs end on it
 with one line (`lerobot_ivmc.scripts.errors.run_cli`).
@@ -14,6 +15,9 @@ from lerobot.configs.policies import PreTrainedConfig
 from lerobot.configs.types import FeatureType
 from lerobot.envs.configs import EnvConfig
 from lerobot.envs.utils import env_to_policy_features
+
+from lerobot_ivmc.policies.legacy_configs import complete_legacy_config
+from lerobot_ivmc.policies.vmc.configuration_vmc import VMCConfig
 
 _PIXEL_OBS_TYPE = "pixels_agent_pos"
 
@@ -39,6 +43,9 @@ def _fix(env_cfg: EnvConfig, key: str, want: tuple[int, ...], visual: bool, prov
 def check_policy_matches_env(policy_cfg: PreTrainedConfig, env_cfg: EnvConfig) -> None:
     """Refuse an env that does not give the observations (or take the actions) the policy was trained on.
 
+    A checkpoint's config that lacks fields added since it was saved is completed first with the values it
+    was made with (`complete_legacy_config`).
+
     Args:
         policy_cfg: the checkpoint's config (`--policy.path`), with the features it was trained on.
         env_cfg: the env it is about to run in.
@@ -48,6 +55,9 @@ def check_policy_matches_env(policy_cfg: PreTrainedConfig, env_cfg: EnvConfig) -
             as expected, with the flag that fixes it where there is one (e.g. `--env.image_size=64`,
             `--env.obs_type=pixels_agent_pos`).
     """
+    if isinstance(policy_cfg, VMCConfig) and policy_cfg.pretrained_path is not None:
+        # A checkpoint saved before a field existed is checked as it was made (e.g. its render style).
+        complete_legacy_config(policy_cfg, policy_cfg.pretrained_path)
     given = env_to_policy_features(env_cfg)
     problems = []
     for key, feature in (policy_cfg.input_features or {}).items():
@@ -70,6 +80,15 @@ def check_policy_matches_env(policy_cfg: PreTrainedConfig, env_cfg: EnvConfig) -
                 f"the policy outputs {key} of shape {tuple(feature.shape)}, "
                 f"the env takes {tuple(given[key].shape)}"
             )
+    trained_style, env_style = (
+        getattr(policy_cfg, "render_style", None),
+        getattr(env_cfg, "render_style", None),
+    )
+    if None not in (trained_style, env_style) and trained_style != env_style:
+        problems.append(
+            f"it was trained on frames drawn in the {trained_style!r} render style, this env draws "
+            f"{env_style!r}; pass --env.render_style={trained_style}"
+        )
     if problems:
         env_name = getattr(env_cfg, "type", type(env_cfg).__name__)
         raise EnvMismatchError(

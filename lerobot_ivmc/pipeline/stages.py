@@ -90,12 +90,21 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
     task = cfg.task
     data = root / "data"
     repo_id = f"local/ivmc_{task}"
-    env_flags = ["--env.type=ivmc", f"--env.task={task}", f"--env.episode_length={cfg.episode_length}"]
     c = cfg.collect
+    # The camera of the demos is the camera of every later stage: the policies are refused in another.
+    env_flags = [
+        "--env.type=ivmc",
+        f"--env.task={task}",
+        f"--env.episode_length={cfg.episode_length}",
+        *flags("env.", {"image_size": c.env.image_size, "render_style": c.env.render_style}),
+    ]
     collect = [
         "lerobot-ivmc-collect",
         f"--env.task={task}",
-        *flags("env.", {"split": c.env.split, "image_size": c.env.image_size}),
+        *flags(
+            "env.",
+            {"split": c.env.split, "image_size": c.env.image_size, "render_style": c.env.render_style},
+        ),
         f"--dataset.root={data}",
         f"--dataset.repo_id={c.dataset.repo_id or repo_id}",
         *flags(
@@ -262,6 +271,8 @@ def train_stages(
     """`lerobot-ivmc-train` of vmc and bvmc with `fc` fully connected layers on the collected demos, from
     the main training seed or from `train_seed`, one of the extra ones."""
     t = cfg.train
+    # lerobot-ivmc-train checks the style against the dataset's record; here it also enters the fingerprint.
+    policy_fields = {**t.policy.given(), "render_style": cfg.collect.env.render_style}
     stages = []
     for policy_type in POLICY_TYPES:
         name = f"train_{policy_type}_fc{fc}{seed_suffix(train_seed)}"
@@ -274,7 +285,7 @@ def train_stages(
                     f"--policy.type={policy_type}",
                     "--policy.device=cpu",
                     f"--policy.num_fc_layers={fc}",
-                    *flags("policy.", t.policy.given()),
+                    *flags("policy.", policy_fields),
                     f"--dataset.repo_id={repo_id}",
                     f"--dataset.root={data}",
                     *flags(
@@ -299,7 +310,7 @@ def train_stages(
                 # LeRobot's own resume: steps, schedule, optimiser and RNG states from the last checkpoint.
                 resume_argv=["lerobot-ivmc-train", f"--config_path={out / TRAIN_CONFIG}", "--resume=true"],
                 resume_marker=out / TRAIN_CONFIG,
-                settings=resolved_policy_config(policy_type, fc, t.policy.given()),
+                settings=resolved_policy_config(policy_type, fc, policy_fields),
             )
         )
     return stages

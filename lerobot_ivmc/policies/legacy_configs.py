@@ -3,8 +3,9 @@
 A saved `config.json` holds every field the config had when it was saved; a field added later is filled
 from its current default when the file is read. Three such fields changed the network or its training
 when their defaults became sequence training with the goal and frame position heads (`training_mode`,
-`goal_head`, `frame_position_head`): a checkpoint whose file lacks them was trained with the values in
-`DEFAULTS_BEFORE_SEQUENCE`, which `fill_legacy_defaults` puts back.
+`goal_head`, `frame_position_head`), and one changed the frames when render styles came (`render_style`):
+a checkpoint whose file lacks them was made with the values in `LEGACY_DEFAULTS`, which
+`fill_legacy_defaults` puts back.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from huggingface_hub import hf_hub_download
 from huggingface_hub.constants import CONFIG_NAME
 from huggingface_hub.errors import HfHubHTTPError
 
-from lerobot_ivmc.policies.vmc.configuration_vmc import DEFAULTS_BEFORE_SEQUENCE, VMCConfig
+from lerobot_ivmc.policies.vmc.configuration_vmc import LEGACY_DEFAULTS, VMCConfig
 
 
 def saved_config_fields(pretrained_name_or_path: str | Path, **hub_kwargs) -> set[str] | None:
@@ -44,11 +45,11 @@ def command_line_policy_fields() -> set[str]:
 def fill_legacy_defaults(
     config: VMCConfig, saved_fields: set[str], keep: set[str] = frozenset()
 ) -> list[str]:
-    """Set the fields of `DEFAULTS_BEFORE_SEQUENCE` that `saved_fields` lacks to their values then (and,
+    """Set the fields of `LEGACY_DEFAULTS` that `saved_fields` lacks to their values then (and,
     when that changed the training mode, a missing `rollout_memory` to the one it implies), except the
     fields in `keep` (set on the command line); return the names changed."""
     changed = []
-    for name, value in DEFAULTS_BEFORE_SEQUENCE.items():
+    for name, value in LEGACY_DEFAULTS.items():
         if name not in saved_fields and name not in keep and getattr(config, name) != value:
             setattr(config, name, value)
             changed.append(name)

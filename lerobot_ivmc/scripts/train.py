@@ -6,7 +6,9 @@ Same flags, same training loop, checkpoints and logs as `lerobot-train` (it runs
 `datasets` queries. It also sets N of Bayesian VMC's concrete dropout regularisers
 (`--policy.dataset_size`, when not given) to the frames actually trained on, so a `--dataset.episodes`
 subset gets its own N (plain `lerobot-train` only sees the whole dataset's metadata: pass
-`--policy.dataset_size` there). A run resumed from a checkpoint saved before sequence training became the
+`--policy.dataset_size` there). The policy records the render style of the frames it trains on
+(`--policy.render_style`), taken from the dataset's collection record; a `--policy.render_style` that
+contradicts the record is refused. A run resumed from a checkpoint saved before sequence training became the
 default gets that checkpoint's training mode before its samples are built (plain `lerobot-train` builds
 them from today's defaults: resume such runs with `lerobot-ivmc-train`). Use it for image (not video)
 datasets that fit in memory (a 64x64 frame takes 12 KiB: 100,000 frames take 1.2 GiB).
@@ -23,8 +25,10 @@ import logging
 from lerobot.datasets import factory
 from lerobot.scripts import lerobot_train
 
+from lerobot_ivmc.datasets.collection_record import dataset_render_style
 from lerobot_ivmc.datasets.frame_cache import FrameCache
-from lerobot_ivmc.policies.legacy_configs import complete_legacy_config
+from lerobot_ivmc.policies.legacy_configs import command_line_policy_fields, complete_legacy_config
+from lerobot_ivmc.scripts.errors import run_cli
 
 logger = logging.getLogger(__name__)
 
@@ -50,14 +54,31 @@ def make_cached_dataset(cfg) -> FrameCache:
     )
     if hasattr(cfg.policy, "dataset_size") and cfg.policy.dataset_size is None:
         cfg.policy.dataset_size = dataset.num_frames
+    if hasattr(cfg.policy, "render_style"):
+        record_render_style(cfg.policy, dataset_render_style(dataset.root))
     return dataset
+
+
+def record_render_style(policy_cfg, data_style: str | None) -> None:
+    """Set the policy's `render_style` to the dataset's; refuse a chosen or resumed one that differs."""
+    if data_style is None or policy_cfg.render_style == data_style:
+        return
+    chosen = "render_style" in command_line_policy_fields()
+    if chosen or getattr(policy_cfg, "pretrained_path", None) is not None:
+        how = "--policy.render_style" if chosen else f"the checkpoint {policy_cfg.pretrained_path}"
+        raise ValueError(
+            f"The dataset's frames are drawn in the {data_style!r} render style, but {how} says "
+            f"{policy_cfg.render_style!r}: train on a dataset collected with --env.render_style="
+            f"{policy_cfg.render_style}, or drop --policy.render_style."
+        )
+    policy_cfg.render_style = data_style
 
 
 def main() -> None:
     # `lerobot_train` imported `make_dataset` into its own namespace; point that name at the cached version
     # for this process only.
     lerobot_train.make_dataset = make_cached_dataset
-    lerobot_train.main()
+    run_cli(lerobot_train.main)
 
 
 if __name__ == "__main__":

@@ -26,6 +26,7 @@ from lerobot_ivmc.datasets import (
     staging,
 )
 from lerobot_ivmc.datasets.collect import CollectConfig, _parse_args, _resume_hint, collect_demos, main
+from lerobot_ivmc.datasets.collection_record import dataset_render_style
 from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, TASK_ENVS, TASKS, make_task_env
 from lerobot_ivmc.envs.scenes import Scene
 
@@ -198,6 +199,18 @@ def test_action_noise_outside_its_range_is_refused(tmp_path, action_noise):
         _config(tmp_path / "data", action_noise=action_noise)
 
 
+def test_the_dataset_records_its_render_style(collected, tmp_path):
+    assert dataset_render_style(collected.root) == collected.render_style == "fast"
+    # The Fetch XML's look keeps the spec of the datasets made before render styles, and reads back as it.
+    legacy = _config(tmp_path / "legacy", task=collected.task, num_episodes=1, render_style="fetch")
+    assert "render_style" not in legacy.spec()
+    collect_demos(legacy)
+    assert dataset_render_style(legacy.root) == "fetch"
+    fetch_frames = _episode_arrays(LeRobotDataset(legacy.repo_id, root=legacy.root), 0)[IMAGE_KEY]
+    fast_frames = _episode_arrays(LeRobotDataset(collected.repo_id, root=collected.root), 0)[IMAGE_KEY]
+    assert not np.array_equal(fetch_frames, fast_frames[: len(fetch_frames)]), "the style changes the frames"
+
+
 def test_same_arguments_reuse_a_finished_dataset(collected):
     data_file = next((collected.root / "data").rglob("*.parquet"))
     mtime = data_file.stat().st_mtime_ns
@@ -214,6 +227,7 @@ def test_another_spec_is_refused_and_nothing_is_touched(collected):
         (_config(collected.root, task=collected.task, num_episodes=3, image_size=48), "feature"),
         (_config(collected.root, task=collected.task, num_episodes=3, video=True), "feature"),
         (_config(collected.root, task=collected.task, num_episodes=3, split="val"), "split"),
+        (_config(collected.root, task=collected.task, num_episodes=3, render_style="fetch"), "render_style"),
         (_config(collected.root, task=collected.task, num_episodes=3, action_noise=0.1), "action_noise"),
         (_config(collected.root, task=collected.task, num_episodes=3, episode_steps=150), "episode_steps"),
         (_config(collected.root, task=collected.task, num_episodes=5), "already holds 3"),

@@ -1,5 +1,7 @@
 """A checkpoint is checked against the env before the first step, naming the flag that fixes a mismatch."""
 
+import json
+
 import pytest
 from lerobot.configs.policies import PreTrainedConfig
 from lerobot.configs.types import FeatureType, PolicyFeature
@@ -55,6 +57,26 @@ def test_the_check_leaves_the_env_config_alone():
     with pytest.raises(EnvMismatchError):
         check_policy_matches_env(_policy_config(64), env_cfg)
     assert env_cfg.features == before and env_cfg.image_size == 32
+
+
+def test_another_render_style_is_refused_naming_the_flag():
+    policy_cfg = _policy_config(64)
+    policy_cfg.render_style = "fetch"
+    with pytest.raises(EnvMismatchError, match=r"drawn in the 'fetch' render style, this env draws 'fast'; "):
+        check_policy_matches_env(policy_cfg, IvmcEnv(task="push"))
+    check_policy_matches_env(policy_cfg, IvmcEnv(task="push", render_style="fetch"))
+
+
+def test_a_checkpoint_saved_before_render_styles_is_checked_as_the_fetch_style(tmp_path):
+    BVMCPolicy(_policy_config(64, BVMCConfig)).save_pretrained(tmp_path)
+    saved = json.loads((tmp_path / "config.json").read_text())
+    del saved["render_style"]
+    (tmp_path / "config.json").write_text(json.dumps(saved))
+    policy_cfg = PreTrainedConfig.from_pretrained(tmp_path)
+    policy_cfg.pretrained_path = tmp_path  # as lerobot-eval's config sets it for --policy.path
+    with pytest.raises(EnvMismatchError, match=r"pass --env.render_style=fetch\.$"):
+        check_policy_matches_env(policy_cfg, IvmcEnv(task="pick_place"))
+    check_policy_matches_env(policy_cfg, IvmcEnv(task="pick_place", render_style="fetch"))
 
 
 def test_the_cli_ends_on_a_mismatch_with_one_line(capsys):

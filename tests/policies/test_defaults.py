@@ -80,6 +80,6 @@ def test_fields_set_on_the_command_line_are_never_filled_in() -> None:
     config = make_config(VMCConfig, training_mode="sequence", goal_head=True, frame_position_head=True)
     saved = {"type", "rollout_memory"}  # a file from before training_mode and the heads existed
     changed = fill_legacy_defaults(config, saved, keep={"frame_position_head"})
-    assert changed == ["training_mode", "goal_head"]
+    assert changed == ["training_mode", "goal_head", "render_style"]
     assert (config.training_mode, config.goal_head, config.frame_position_head) == ("window", False, True)
     assert config.rollout_memory == "trajectory", "saved in the file: kept"

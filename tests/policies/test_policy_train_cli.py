@@ -17,6 +17,7 @@ from lerobot.policies.factory import get_policy_class, make_pre_post_processors
 from lerobot.scripts.lerobot_eval import rollout
 from policy_helpers import TINY_REPO_ID
 
+from lerobot_ivmc.datasets.staging import COLLECTION_INFO_PATH
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
 
 STEPS = 5
@@ -157,3 +158,31 @@ def test_a_run_saved_before_the_defaults_switch_resumes_with_its_own_training_mo
         False,
         False,
     )
+
+
+def test_the_checkpoint_records_the_render_style_of_its_dataset(tiny_dataset: Path, tmp_path: Path) -> None:
+    """A dataset collected before render styles (its record names none) has the Fetch XML's look:
+    `lerobot-ivmc-train` records that in the checkpoint, and refuses a `--policy.render_style` against it."""
+    dataset = tmp_path / "legacy_dataset"
+    shutil.copytree(tiny_dataset, dataset)
+    (dataset / COLLECTION_INFO_PATH).write_text(json.dumps({"spec": {"task": "pick_place"}}))
+    out = tmp_path / "train"
+    cmd = train_command("lerobot-ivmc-train", "vmc", dataset, out, 1, "--batch_size=2", *WHOLE_DEMOS)
+    result = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    saved = json.loads((out / "checkpoints" / "000001" / "pretrained_model" / "config.json").read_text())
+    assert saved["render_style"] == "fetch"
+
+    cmd = train_command(
+        "lerobot-ivmc-train", "vmc", dataset, tmp_path / "refused", 1, "--policy.render_style=fast"
+    )
+    result = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 2
+    assert (
+        result.stderr.strip()
+        .splitlines()[-1]
+        .startswith(
+            "error: The dataset's frames are drawn in the 'fetch' render style, but --policy.render_style says"
+        )
+    )
+    assert not (tmp_path / "refused" / "checkpoints").exists()

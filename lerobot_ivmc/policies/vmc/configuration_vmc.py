@@ -10,6 +10,8 @@ from lerobot.optim.optimizers import AdamConfig
 from lerobot.optim.schedulers import CosineDecayWithWarmupSchedulerConfig
 from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
 
+from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE, LEGACY_RENDER_STYLE, check_render_style
+
 # Layout of the action: delta end-effector command (3) followed by the gripper command in {-1, 0, +1}.
 DELTA_EE_DIM = 3
 ACTION_DIM = DELTA_EE_DIM + 1
@@ -24,9 +26,14 @@ GRIPPER_COMMANDS = (-1.0, 0.0, 1.0)
 # whole-demo schedule place as well as 36,000 window steps at 3e-4).
 SEQUENCE_LR = 6e-4
 WINDOW_LR = 3e-4
-# What a checkpoint saved before sequence training became the default ran with, for the fields its
-# config.json may lack (saved before they existed): `VMCPolicy.from_pretrained` fills these in.
-DEFAULTS_BEFORE_SEQUENCE = {"training_mode": "window", "goal_head": False, "frame_position_head": False}
+# What a checkpoint saved before sequence training became the default (or before render styles existed)
+# ran with, for the fields its config.json may lack: `VMCPolicy.from_pretrained` fills these in.
+LEGACY_DEFAULTS = {
+    "training_mode": "window",
+    "goal_head": False,
+    "frame_position_head": False,
+    "render_style": LEGACY_RENDER_STYLE,
+}
 
 
 @PreTrainedConfig.register_subclass("vmc")
@@ -41,6 +48,9 @@ class VMCConfig(PreTrainedConfig):
         normalization_mapping: normalisation per feature type. ACTION must stay IDENTITY: its last
             dimension is a class label (gripper close / no-op / open), which mean/std would mangle.
         image_key: the camera to use; None picks the only VISUAL input feature.
+        render_style: how the training frames were drawn (`lerobot_ivmc.envs.render_styles`);
+            `lerobot-ivmc-train` takes it from the dataset's collection record, and the ivmc commands refuse
+            an env of another `--env.render_style`. With plain `lerobot-train`, pass the dataset's style.
         conv_channels: filters of the 3x3 stride-2 conv layers (each halves the image side).
         lstm_dim: LSTM width, also the size of the embedding e_t.
         fc_dim: width of the fully connected layers after the LSTM.
@@ -107,6 +117,7 @@ class VMCConfig(PreTrainedConfig):
         }
     )
     image_key: str | None = None
+    render_style: str = DEFAULT_RENDER_STYLE
 
     # Architecture. Smaller than GEECO's 8-layer CNN at 256x256 so that 64x64 frames train on 2 CPU cores:
     # 64 -> 32 -> 16 -> 8 -> 4, a 4x4x64 map, concatenated with the tiled state.
@@ -136,6 +147,7 @@ class VMCConfig(PreTrainedConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        check_render_style("render_style", self.render_style)
         if self.n_obs_steps < 1:
             raise ValueError(f"n_obs_steps must be >= 1, got {self.n_obs_steps}.")
         if self.num_fc_layers not in (1, 2):

@@ -1,0 +1,27 @@
+"""What a dataset's collector recorded about it (`meta/ivmc_collection.json`): here, its render style."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from lerobot_ivmc.datasets.staging import COLLECTION_INFO_PATH
+from lerobot_ivmc.envs.render_styles import LEGACY_RENDER_STYLE
+
+
+def spec_render_style(spec: dict) -> str:
+    """The render style of a collection spec (datasets made before render styles have the Fetch look)."""
+    return spec.get("render_style", LEGACY_RENDER_STYLE)
+
+
+def dataset_render_style(root: Path) -> str | None:
+    """The render style of the dataset in `root`, or None if lerobot-ivmc-collect did not make it."""
+    path = Path(root) / COLLECTION_INFO_PATH
+    if not path.exists():
+        return None
+    try:
+        return spec_render_style(json.loads(path.read_text())["spec"])
+    except (ValueError, KeyError, TypeError) as error:
+        raise ValueError(
+            f"{path} is not a readable collection record ({error}); recollect the dataset."
+        ) from error
