@@ -5,7 +5,10 @@ It parses the same arguments as `lerobot-eval` plus `--recovery.*` and runs LeRo
 `eval_info.json` as `subtasks` (per episode) and `aggregated_subtasks` (rates with standard errors). A
 `bvmc` policy runs inside `IntrospectiveController` (Algorithm 1), which also records per-step
 uncertainty traces (`uncertainty_traces.npz`), the recovery events and u of every episode, the paper's
-Fig. 3 (`uncertainty_vs_success.png`) and videos of recoveries (`recovery_videos/`).
+Fig. 3 (`uncertainty_vs_success.png`) and videos of recoveries (`recovery_videos/`, made from the camera
+images the policy acted on, so no frame is rendered for them). `--eval.use_async_envs=true` steps each
+sub-env in its own process (per-episode results are the same as in one process); `--max_episodes_rendered`
+sets how many episodes LeRobot renders into `videos/` (10, as `lerobot-eval`; 0 saves their rendering).
 
     lerobot-ivmc-eval --policy.path=<bvmc checkpoint with foresight and threshold> --env.type=ivmc \\
         --env.task=pick_place --eval.n_episodes=100 --eval.batch_size=10 --seed=0 --recovery.mode=min_unc
@@ -26,13 +29,13 @@ from lerobot.utils.constants import OBS_ENV_STATE
 from lerobot.utils.random_utils import set_seed
 
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
+from lerobot_ivmc.envs.vector_env import make_vector_env
 from lerobot_ivmc.evaluation.compatibility import check_policy_matches_env
 from lerobot_ivmc.evaluation.fig3 import plot_success_by_uncertainty, success_by_uncertainty_bins
 from lerobot_ivmc.evaluation.loading import load_policy
 from lerobot_ivmc.evaluation.metrics import aggregate_milestones
 from lerobot_ivmc.evaluation.milestone_recorder import MilestoneRecorder
 from lerobot_ivmc.evaluation.recovery_videos import (
-    FrameRecorder,
     RecoveryVideoStore,
     recovery_phase_summary,
     write_recovery_video,
@@ -49,28 +52,32 @@ EVAL_INFO_FILE = "eval_info.json"
 FIG3_FILE = "uncertainty_vs_success.png"
 
 
+# As `lerobot-eval`, which renders the first 10 episodes into `videos/`.
+DEFAULT_EPISODES_RENDERED = 10
+
+
 @dataclass
 class IvmcEvalConfig(EvalPipelineConfig):
-    """`lerobot-eval`'s config plus the recovery settings (`--recovery.mode=min_unc`, ...)."""
+    """`lerobot-eval`'s config plus the recovery settings (`--recovery.mode=min_unc`, ...).
+
+    Args:
+        recovery: the recovery settings.
+        max_episodes_rendered: episodes LeRobot's `eval_policy` renders into `videos/` at
+            `--env.render_size` (0: none; recovery videos are made apart from these).
+    """
 
     recovery: RecoveryConfig = field(default_factory=RecoveryConfig)
+    max_episodes_rendered: int = DEFAULT_EPISODES_RENDERED
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.max_episodes_rendered < 0:
+            raise ValueError(f"--max_episodes_rendered must be >= 0, got {self.max_episodes_rendered}.")
 
 
-def make_recorded_vector_env(
-    env_cfg: IvmcEnv, n_envs: int, video_store: RecoveryVideoStore | None = None
-) -> gym.vector.SyncVectorEnv:
-    """The vector env LeRobot's `make_env` would build, with a `MilestoneRecorder` on each sub-env (and a
-    `FrameRecorder` when recovery videos are wanted)."""
-
-    def make_one(index: int) -> gym.Env:
-        env = gym.make(env_cfg.gym_id, disable_env_checker=True, **env_cfg.gym_kwargs)
-        if video_store is not None:
-            env = FrameRecorder(env, index, video_store)
-        return MilestoneRecorder(env)
-
-    return gym.vector.SyncVectorEnv(
-        [lambda i=i: make_one(i) for i in range(n_envs)], autoreset_mode=gym.vector.AutoresetMode.SAME_STEP
-    )
+def make_recorded_vector_env(env_cfg: IvmcEnv, n_envs: int, use_async: bool = False) -> gym.vector.VectorEnv:
+    """The vector env LeRobot's `make_env` would build, with a `MilestoneRecorder` on each sub-env."""
+    return make_vector_env(env_cfg, n_envs, use_async, wrap=MilestoneRecorder)
 
 
 def episode_order(per_env: list[list], n_episodes: int) -> list:
@@ -80,7 +87,7 @@ def episode_order(per_env: list[list], n_episodes: int) -> list:
     return episodes[:n_episodes]
 
 
-def collect_episode_milestones(env: gym.vector.SyncVectorEnv, n_episodes: int) -> list[dict[str, bool]]:
+def collect_episode_milestones(env: gym.vector.VectorEnv, n_episodes: int) -> list[dict[str, bool]]:
     """Milestones of the evaluated episodes in `eval_policy`'s order (batch-major, then sub-env)."""
     return episode_order(env.get_attr("episode_milestones"), n_episodes)
 
@@ -142,18 +149,22 @@ def evaluate(cfg: IvmcEvalConfig, ignore_stored_threshold: bool = False) -> dict
             )
     logger.info(pformat(asdict(cfg)))
     set_seed(cfg.seed)
-    wants_videos = is_bayesian and cfg.recovery.mode != "none" and cfg.recovery.max_videos > 0
-    video_store = RecoveryVideoStore(cfg.recovery.max_videos) if wants_videos else None
-    env = make_recorded_vector_env(cfg.env, cfg.eval.batch_size, video_store)
+    env = make_recorded_vector_env(cfg.env, cfg.eval.batch_size, cfg.eval.use_async_envs)
     loaded = load_policy(cfg)
     policy = loaded.policy
-    controller = None
+    controller, video_store = None, None
     if is_bayesian:
+        if cfg.recovery.mode != "none" and cfg.recovery.max_videos > 0:
+            video_store = RecoveryVideoStore(cfg.recovery.max_videos, policy.config.image_feature_key)
         controller = IntrospectiveController(
-            policy, cfg.recovery, threshold, window, env_state_stats(loaded.preprocessor), seed=cfg.seed
+            policy,
+            cfg.recovery,
+            threshold,
+            window,
+            env_state_stats(loaded.preprocessor),
+            seed=cfg.seed,
+            observers=(video_store,) if video_store is not None else (),
         )
-        if video_store is not None:
-            video_store.had_recovery = lambda j, b: bool(controller.traces[b].events[j])
     # Seed again once everything is built: the Monte Carlo masks then do not depend on how many random
     # draws building the policy took (e.g. a checkpoint with or without a foresight head).
     set_seed(cfg.seed)
@@ -163,10 +174,12 @@ def evaluate(cfg: IvmcEvalConfig, ignore_stored_threshold: bool = False) -> dict
             controller if controller is not None else policy,
             *loaded.processors,
             n_episodes=cfg.eval.n_episodes,
-            max_episodes_rendered=10,
+            max_episodes_rendered=cfg.max_episodes_rendered,
             videos_dir=output_dir / "videos",
             start_seed=cfg.seed,
         )
+    if controller is not None:
+        controller.end_batch()
     n = cfg.eval.n_episodes
     milestones = collect_episode_milestones(env, n)
     lengths_per_env = env.get_attr("episode_lengths")
@@ -244,9 +257,10 @@ def write_videos(
         episode_index = b * batch_size + j
         if episode_index >= cfg.eval.n_episodes:
             continue
-        episode = controller.traces[b].episode(j, lengths_per_env[j][b])
+        length = lengths_per_env[j][b]
+        episode = controller.traces[b].episode(j, length)
         path = Path(cfg.output_dir) / "recovery_videos" / f"episode_{episode_index:04d}.mp4"
-        write_recovery_video(path, frames, episode, float(threshold), cfg.env.fps)
+        write_recovery_video(path, frames[:length], episode, float(threshold), cfg.env.fps)
         paths.append(str(path))
     return paths
 

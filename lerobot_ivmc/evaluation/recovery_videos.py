@@ -1,9 +1,11 @@
 """Videos of episodes in which a recovery happened, the uncertainty trace drawn under the frames.
 
-`FrameRecorder` wraps a sub-env and renders the frames of its seeded episodes; when one ends it offers
-them to a `RecoveryVideoStore`, which keeps those of episodes with a recovery (up to a limit) and writes
-each as an mp4 with, under the camera, the sliding-window sum, the threshold, the recovery phases and a
-cursor at the current step: why the robot stopped and what it did.
+The frames are the camera images the policy acted on, kept by a `RecoveryVideoStore` that the controller
+shows every step's observation batch: nothing is rendered for the videos, and the store lives in the
+evaluating process, so it works the same with async vector envs. It keeps the frames of up to
+`max_videos` episodes with a recovery; each is written as an mp4 with, under the enlarged camera image,
+the sliding-window sum, the threshold, the recovery phases and a cursor at the current step: why the robot
+stopped and what it did.
 """
 
 from __future__ import annotations
@@ -11,61 +13,57 @@ from __future__ import annotations
 import warnings
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
-import gymnasium as gym
 import numpy as np
+import torch
 from lerobot.utils.io_utils import write_video
 
+from lerobot_ivmc.recovery.controller import BatchTrace
 from lerobot_ivmc.recovery.manoeuvres import NORMAL, PHASE_NAMES
 
 PHASE_COLOURS = {1: "tab:orange", 2: "tab:green", 3: "tab:purple", 4: "tab:brown"}
+# The camera images are enlarged by a whole factor (nearest pixel) to at least this side in the videos.
+VIDEO_MIN_SIDE = 256
 
 
 class RecoveryVideoStore:
-    """Keeps the frames of up to `max_videos` episodes that `had_recovery(env_index, episode_index)`."""
+    """Keeps the camera frames of up to `max_videos` episodes in which the controller started a recovery.
 
-    def __init__(self, max_videos: int):
+    Args:
+        max_videos: episodes kept at most (the first ones, in batch order).
+        image_key: the camera in the policy's observation batch, (B, 3, H, W) floats in [0, 1].
+    """
+
+    def __init__(self, max_videos: int, image_key: str):
         self.max_videos = max_videos
-        self.had_recovery: Callable[[int, int], bool] = lambda env_index, episode_index: False
-        self.kept: dict[tuple[int, int], list[np.ndarray]] = {}
+        self.image_key = image_key
+        self.kept: dict[tuple[int, int], np.ndarray] = {}  # (row, batch) -> (T, H, W, 3) uint8
+        self._batch_frames: list[np.ndarray] = []  # per step, (B, H, W, 3) uint8
 
     @property
     def wants_frames(self) -> bool:
         return len(self.kept) < self.max_videos
 
-    def offer(self, env_index: int, episode_index: int, frames: list[np.ndarray]) -> None:
-        if self.wants_frames and self.had_recovery(env_index, episode_index):
-            self.kept[(env_index, episode_index)] = frames
+    def observe(self, batch: dict[str, torch.Tensor]) -> None:
+        """Keep this step's camera images while more videos are wanted."""
+        if self.wants_frames:
+            images = (batch[self.image_key].float().clamp(0, 1) * 255).round().to(torch.uint8)
+            self._batch_frames.append(images.permute(0, 2, 3, 1).cpu().numpy())
+
+    def end_batch(self, batch_index: int, trace: BatchTrace) -> None:
+        """Keep the frames of the batch's episodes with a recovery (up to the limit); drop the rest."""
+        if self._batch_frames:
+            frames = np.stack(self._batch_frames, axis=1)  # (B, T, H, W, 3)
+            for row, events in enumerate(trace.events):
+                if events and self.wants_frames:
+                    self.kept[(row, batch_index)] = frames[row]
+        self._batch_frames = []
 
 
-class FrameRecorder(gym.Wrapper):
-    """Renders every step of this sub-env's seeded episodes while the store wants frames."""
-
-    def __init__(self, env: gym.Env, env_index: int, store: RecoveryVideoStore):
-        super().__init__(env)
-        self.env_index = env_index
-        self.store = store
-        self.seeded_episodes = 0
-        self._frames: list[np.ndarray] | None = None
-
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        observation, info = self.env.reset(seed=seed, options=options)
-        self._frames = None
-        if seed is not None:
-            self.seeded_episodes += 1
-            if self.store.wants_frames:
-                self._frames = [self.env.render()]
-        return observation, info
-
-    def step(self, action):
-        observation, reward, terminated, truncated, info = self.env.step(action)
-        if self._frames is not None:
-            self._frames.append(self.env.render())
-            if terminated or truncated:
-                self.store.offer(self.env_index, self.seeded_episodes - 1, self._frames)
-                self._frames = None
-        return observation, reward, terminated, truncated, info
+def enlarge(frames: np.ndarray, min_side: int = VIDEO_MIN_SIDE) -> np.ndarray:
+    """(T, H, W, 3) frames enlarged by the smallest whole factor that makes them at least `min_side` wide."""
+    factor = max(1, -(-min_side // frames.shape[2]))
+    return frames.repeat(factor, axis=1).repeat(factor, axis=2)
 
 
 def trace_panel(episode: dict, threshold: float, width: int, height: int) -> tuple[np.ndarray, Callable]:
@@ -110,11 +108,11 @@ def trace_panel(episode: dict, threshold: float, width: int, height: int) -> tup
     return image, lambda step: x_of_step[min(step, len(steps))]
 
 
-def write_recovery_video(
-    path: Path, frames: list[np.ndarray], episode: dict, threshold: float, fps: int
-) -> Path:
-    """An mp4 of `frames` above the episode's trace, a cursor at each frame's step."""
-    width = frames[0].shape[1]
+def write_recovery_video(path: Path, frames: np.ndarray, episode: dict, threshold: float, fps: int) -> Path:
+    """An mp4 of the (T, H, W, 3) camera frames, enlarged, above the episode's trace; frame t is the image
+    the policy acted on at step t, the cursor at that step."""
+    frames = enlarge(frames)
+    width = frames.shape[2]
     panel, x_of_step = trace_panel(episode, threshold, width, max(width // 2, 96))
     stacked = []
     for step, frame in enumerate(frames):

@@ -147,6 +147,8 @@ class PipelineConfig:
         eval: the Table I evaluations on test scenes (VMC, and BVMC with each of `recovery_modes`).
         recovery_modes: the BVMC rows: "none" (plain BVMC), "rand", "init", "min_unc".
         fig3: the Fig. 3 evaluation (BVMC without recovery, many test episodes) and detection metrics.
+        async_envs: foresight, threshold and evaluation stages step each sub-env in its own process
+            (`--eval.use_async_envs`; the same episodes as in one process, benchmarks/bench_eval.py).
     """
 
     task: str = ""
@@ -162,6 +164,7 @@ class PipelineConfig:
     eval: EpisodesConfig = field(default_factory=EpisodesConfig)
     recovery_modes: list[str] = field(default_factory=lambda: list(RECOVERY_MODES))
     fig3: EpisodesConfig = field(default_factory=lambda: EpisodesConfig(n_episodes=800))
+    async_envs: bool = True
 
     def __post_init__(self) -> None:
         self.validate()

@@ -129,6 +129,9 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
     stages = [Stage("collect", collect, data, data / "meta" / "info.json", resume_argv=collect)]
     t = cfg.train
     seed = f"--seed={cfg.seed}"
+    # Evaluation-like stages: sub-envs in parallel processes or not; no LeRobot eval videos (never read).
+    async_flag = f"--eval.use_async_envs={str(cfg.async_envs).lower()}"
+    eval_env_flags = [*env_flags, async_flag, "--max_episodes_rendered=0"]
     # One #fc after the other, so that a long study has the first #fc's rows while the next one trains.
     for fc in t.num_fc_layers:
         for training in train_stages(cfg, fc, data, c.dataset.repo_id or repo_id):
@@ -151,6 +154,7 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
                     *flags("foresight.", distillation),
                     f"--eval.batch_size={f.batch_size}",
                     f"--eval.n_episodes={f.batch_size}",
+                    async_flag,
                     seed,
                     f"--output_dir={foresight}",
                 ],
@@ -166,7 +170,7 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
                 [
                     "lerobot-ivmc-threshold",
                     f"--policy.path={foresight / 'pretrained_model'}",
-                    *env_flags,
+                    *eval_env_flags,
                     "--env.split=val",
                     f"--eval.n_episodes={th.n_episodes}",
                     f"--eval.batch_size={th.batch_size}",
@@ -192,7 +196,7 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
                     name,
                     checkpoint,
                     out,
-                    env_flags,
+                    eval_env_flags,
                     cfg.eval.n_episodes,
                     cfg.eval.batch_size,
                     seed,
@@ -208,7 +212,7 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
                     fig3,
                     threshold / "pretrained_model",
                     out,
-                    env_flags,
+                    eval_env_flags,
                     cfg.fig3.n_episodes,
                     cfg.fig3.batch_size,
                     seed,
@@ -244,7 +248,7 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
                         name,
                         training.output / CHECKPOINT,
                         root / "eval" / name.removeprefix("eval_"),
-                        env_flags,
+                        eval_env_flags,
                         cfg.eval.n_episodes,
                         cfg.eval.batch_size,
                         seed,

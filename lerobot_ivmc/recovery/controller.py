@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 import torch
@@ -59,6 +60,16 @@ class BatchTrace:
         }
 
 
+class StepObserver(Protocol):
+    """Sees what the controller sees (e.g. `evaluation.recovery_videos.RecoveryVideoStore`)."""
+
+    def observe(self, batch: dict[str, Tensor]) -> None:
+        """Called with each step's observation batch, before the controller acts on it."""
+
+    def end_batch(self, batch_index: int, trace: BatchTrace) -> None:
+        """Called once a batch of episodes is over, with its trace (`traces[batch_index]`)."""
+
+
 def memory_row(memory: tuple[Tensor, ...], row: int) -> tuple[Tensor, ...]:
     """One rollout's part of a batched policy memory (copies)."""
     return tuple(t[row].clone() for t in memory)
@@ -81,6 +92,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
         env_state_stats: (mean, std) of `observation.environment_state`, to read the grip point's position
             from the normalised observation (the first three entries).
         seed: seeds the random draws of rand and init, and min_unc's candidate noise.
+        observers: shown every step's observation batch and every finished batch's trace.
     """
 
     name = "bvmc_introspective"
@@ -93,6 +105,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
         window: int,
         env_state_stats: tuple[Tensor, Tensor],
         seed: int = 0,
+        observers: tuple[StepObserver, ...] = (),
     ):
         super().__init__(policy)
         if recovery.mode != "none" and threshold is None:
@@ -112,11 +125,19 @@ class IntrospectiveController(BVMCRolloutWrapper):
             else float(getattr(policy.config, "foresight_action_noise", 0.0))
         )
         self.traces: list[BatchTrace] = []
+        self.observers = observers
         self._batch_size: int | None = None
 
     def reset(self) -> None:
         """Start a batch of episodes (LeRobot's `rollout` calls this once per batch)."""
         super().reset()
+        self.end_batch()
+
+    def end_batch(self) -> None:
+        """Close the batch under way, if any, for the observers (`reset` does; call it after the last)."""
+        if self._batch_size is not None:
+            for observer in self.observers:
+                observer.end_batch(len(self.traces) - 1, self.traces[-1])
         self._batch_size = None
 
     # ---------------------------------------------------------------------------------------- Algorithm 1
@@ -192,6 +213,8 @@ class IntrospectiveController(BVMCRolloutWrapper):
         batch_size = grip.shape[0]
         if self._batch_size != batch_size:
             self._start_batch(batch_size, grip)
+        for observer in self.observers:
+            observer.observe(batch)
         for row, manoeuvre in enumerate(self.manoeuvres):
             if manoeuvre is not None:
                 change = manoeuvre.advance(grip[row])

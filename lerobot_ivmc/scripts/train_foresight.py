@@ -19,11 +19,11 @@ from pathlib import Path
 import torch
 from lerobot.configs import parser
 from lerobot.configs.eval import EvalPipelineConfig
-from lerobot.envs.factory import make_env
 from lerobot.utils.random_utils import set_seed
 
 from lerobot_ivmc.envs import make_task_env_from_config
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
+from lerobot_ivmc.envs.vector_env import make_vector_env
 from lerobot_ivmc.evaluation.compatibility import check_policy_matches_env
 from lerobot_ivmc.evaluation.loading import load_policy
 from lerobot_ivmc.recovery.foresight_data import collect_distillation_data, load_shards
@@ -88,8 +88,7 @@ def run(cfg: ForesightPipelineConfig) -> dict:
     set_seed(cfg.seed)
     loaded = load_policy(cfg)
     policy = loaded.policy
-    envs = make_env(cfg.env, n_envs=cfg.eval.batch_size)
-    vector_env = next(iter(next(iter(envs.values())).values()))
+    vector_env = make_vector_env(cfg.env, cfg.eval.batch_size, cfg.eval.use_async_envs)
     output_dir = Path(cfg.output_dir)
     spec = {
         "policy": str(Path(cfg.policy.pretrained_path).resolve()),

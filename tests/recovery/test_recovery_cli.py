@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 from unittest import mock
 
+import av
 import numpy as np
 import pytest
 import torch
@@ -122,7 +123,32 @@ def test_each_mode_runs_end_to_end(mode: str, tiny_recovery_checkpoint: Path, tm
     else:
         assert info["recovery"]["num_recoveries"] > 0
         assert all(event["mode"] == mode for e in episodes for event in e["recoveries"])
-        assert len(list((out / "recovery_videos").glob("*.mp4"))) == 1
+        videos = list((out / "recovery_videos").glob("*.mp4"))
+        assert len(videos) == 1
+        # One frame per step: the 64-px camera image the policy acted on, enlarged 4x, above the trace.
+        with av.open(str(videos[0])) as container:
+            frames = [frame.to_ndarray(format="rgb24") for frame in container.decode(video=0)]
+        assert len(frames) == EPISODE_LENGTH
+        assert frames[0].shape[1] == 256 and frames[0].shape[0] > 256
+
+
+@pytest.mark.parametrize("mode", ["none", "min_unc"])
+def test_async_envs_give_the_same_episodes_as_one_process(
+    mode: str, tiny_recovery_checkpoint: Path, tmp_path: Path
+) -> None:
+    flags = [f"--recovery.mode={mode}", "--recovery.max_videos=1", "--max_episodes_rendered=0"]
+    if mode != "none":
+        flags += ["--recovery.threshold=0.0", "--recovery.initial_interval=2", "--recovery.recovery_steps=5"]
+    for name, use_async in (("sync", "false"), ("async", "true")):
+        evaluate(tiny_recovery_checkpoint, tmp_path / name, *flags, f"--eval.use_async_envs={use_async}")
+    sync, async_ = (json.loads((tmp_path / n / "eval_info.json").read_text()) for n in ("sync", "async"))
+    for key in ("max_uncertainty", "recoveries", "subtasks", "sum_reward", "success", "seed"):
+        assert [e[key] for e in sync["per_episode"]] == [e[key] for e in async_["per_episode"]]
+    traces = (load_traces(tmp_path / n / "uncertainty_traces.npz") for n in ("sync", "async"))
+    for x, y in zip(*traces, strict=True):
+        np.testing.assert_array_equal(x["window_sum"], y["window_sum"])
+    videos = [sorted(p.name for p in (tmp_path / n).rglob("*.mp4")) for n in ("sync", "async")]
+    assert videos[0] == videos[1] == (["episode_0000.mp4"] if mode != "none" else [])
 
 
 def test_same_seed_gives_identical_results(tiny_recovery_checkpoint: Path, tmp_path: Path) -> None:
