@@ -1,4 +1,5 @@
-"""One writer per collection root: an OS-level lock on a file in the root that dies with its holder.
+"""One writer per output folder (a collection root, an evaluation's output): an OS-level lock on a file in
+the folder that dies with its holder.
 
 `fcntl.flock` locks belong to the open file, so the kernel releases them when the holder exits or is
 killed (SIGKILL included): a killed collection never leaves a stale lock, and the next run takes it over.
@@ -21,47 +22,63 @@ from pathlib import Path
 from lerobot_ivmc.datasets.staging import CollectionError
 
 LOCK_FILE = ".ivmc_collect.lock"
+EVAL_LOCK_FILE = ".ivmc_eval.lock"
 
 
 class RootLock:
-    """Exclusive, non-blocking lock of a collection root, as a context manager.
+    """Exclusive, non-blocking lock of an output folder, as a context manager.
 
     Args:
-        root: the dataset folder; created (with its parents) if missing.
+        root: the folder; created (with its parents) if missing.
+        lock_file: the lock file's name in it.
+        writer: what writes the folder, for messages ("collector", "evaluation").
+        flag: the command-line flag that names the folder, for messages.
+        error: the exception raised on entry (the collector's `CollectionError` by default).
 
     Raises:
-        CollectionError: on entry, when `root` is a file or cannot be created, or another process holds
-            the lock (the message names it).
+        `error`: on entry, when `root` is a file or cannot be created, or another process holds the lock
+            (the message names it).
     """
 
-    def __init__(self, root: Path):
+    def __init__(
+        self,
+        root: Path,
+        lock_file: str = LOCK_FILE,
+        writer: str = "collector",
+        flag: str = "--root",
+        error: type[Exception] = CollectionError,
+    ):
         self.root = Path(root)
-        self.path = self.root / LOCK_FILE
+        self.path = self.root / lock_file
+        self.writer, self.flag, self.error = writer, flag, error
         self._fd: int | None = None
         self._created_root = False
 
     def __enter__(self) -> RootLock:
         if self.root.exists() and not self.root.is_dir():
-            raise CollectionError(
-                f"--root {self.root} is a file; give a folder (new, or one this command made)."
+            raise self.error(
+                f"{self.flag} {self.root} is a file; give a folder (new, or one this command made)."
             )
         self._created_root = not self.root.exists()
         try:
             self.root.mkdir(parents=True, exist_ok=True)
         except OSError as error:
-            raise CollectionError(f"Cannot create the dataset folder {self.root}: {error}.") from error
+            raise self.error(f"Cannot create the folder {self.root} ({self.flag}): {error}.") from error
         while True:
             try:
                 fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
             except OSError as error:
-                raise CollectionError(f"Cannot write the lock file {self.path}: {error}.") from error
+                raise self.error(
+                    f"Cannot write the lock file {self.path}: {error}; give a writable {self.flag}."
+                ) from error
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
                 os.close(fd)
-                raise CollectionError(
-                    f"{self.root} is being written by another collector ({_describe_holder(self.path)}). "
-                    "One collector writes a root at a time: wait for it to finish or stop it, then rerun."
+                raise self.error(
+                    f"{self.root} is being written by another {self.writer} ({_describe_holder(self.path)}). "
+                    f"One {self.writer} writes a folder at a time: wait for it to finish or stop it, or pass "
+                    f"another {self.flag}."
                 ) from None
             if _same_file(fd, self.path):
                 break

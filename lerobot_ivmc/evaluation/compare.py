@@ -18,22 +18,45 @@ from scipy import stats
 EVAL_INFO_FILE = "eval_info.json"
 
 
-def load_episodes(folder: Path) -> list[dict]:
+def load_run(folder: Path) -> dict:
+    """A run's `eval_info.json`: its `run` record (task, split, seed) and `per_episode` list."""
     path = Path(folder) / EVAL_INFO_FILE
     if not path.is_file():
         raise FileNotFoundError(f"{path} not found: pass the --output_dir of a lerobot-ivmc-eval run.")
-    return json.loads(path.read_text())["per_episode"]
-
-
-def paired_outcomes(a: list[dict], b: list[dict], milestone: str) -> dict:
-    """Counts of (a, b) outcomes on paired episodes and the exact McNemar p-value."""
-    if [e["seed"] for e in a] != [e["seed"] for e in b]:
+    try:
+        info = json.loads(path.read_text())
+        info["run"]["task"], info["run"]["split"], info["per_episode"][0]["seed"]  # noqa: B018
+    except (ValueError, KeyError, IndexError, TypeError) as error:
         raise ValueError(
-            "The runs did not evaluate the same scenes: rerun them with the same --seed and counts."
+            f"{path} is not a complete lerobot-ivmc-eval record ({error!r}); rerun it."
+        ) from error
+    return info
+
+
+def paired_outcomes(a: dict, b: dict, milestone: str) -> dict:
+    """Counts of (a, b) outcomes on the scenes both runs evaluated and the exact McNemar p-value.
+
+    Args:
+        a, b: runs as `load_run` reads them, of one task and split; episodes pair up by scene seed (runs
+            with the same `--seed` and different counts share their first scenes).
+        milestone: the subtask compared (the task's last one is success).
+    """
+    for key in ("task", "split"):
+        if a["run"][key] != b["run"][key]:
+            raise ValueError(
+                f"The runs evaluated different {key}s ({a['run'][key]!r} and {b['run'][key]!r}): compare "
+                "runs of one task on one scene split."
+            )
+    subtasks = list(a["per_episode"][0]["subtasks"])
+    if milestone not in subtasks:
+        raise ValueError(
+            f"--milestone={milestone} is not a milestone of {a['run']['task']}: choose from {subtasks}."
         )
-    flags = [
-        (bool(x["subtasks"][milestone]), bool(y["subtasks"][milestone])) for x, y in zip(a, b, strict=True)
-    ]
+    b_by_seed = {e["seed"]: e for e in b["per_episode"]}
+    pairs = [(x, b_by_seed[x["seed"]]) for x in a["per_episode"] if x["seed"] in b_by_seed]
+    if not pairs:
+        raise ValueError("The runs share no scene: rerun them with the same --seed.")
+    flags = [(bool(x["subtasks"][milestone]), bool(y["subtasks"][milestone])) for x, y in pairs]
     only_a = sum(x and not y for x, y in flags)
     only_b = sum(y and not x for x, y in flags)
     discordant = only_a + only_b
@@ -41,6 +64,8 @@ def paired_outcomes(a: list[dict], b: list[dict], milestone: str) -> dict:
     return {
         "milestone": milestone,
         "episodes": len(flags),
+        "episodes_first": len(a["per_episode"]),
+        "episodes_second": len(b["per_episode"]),
         "both": sum(x and y for x, y in flags),
         "only_first": only_a,
         "only_second": only_b,
@@ -58,12 +83,18 @@ def main() -> None:
     parser.add_argument("--milestone", help="a subtask name; default: the task's last milestone (success)")
     args = parser.parse_args()
     try:
-        base = load_episodes(args.baseline)
-        milestone = args.milestone or list(base[0]["subtasks"])[-1]
+        base = load_run(args.baseline)
+        milestone = args.milestone or list(base["per_episode"][0]["subtasks"])[-1]
         for other in args.others:
-            result = paired_outcomes(base, load_episodes(other), milestone)
+            result = paired_outcomes(base, load_run(other), milestone)
+            shared = result["episodes"]
+            unpaired = (
+                f" of {result['episodes_first']} and {result['episodes_second']}"
+                if shared != max(result["episodes_first"], result["episodes_second"])
+                else ""
+            )
             print(
-                f"{args.baseline.name} vs {other.name} ({milestone}, {result['episodes']} paired scenes): "
+                f"{args.baseline.name} vs {other.name} ({milestone}, {shared} paired scenes{unpaired}): "
                 f"both "
                 f"{result['both']}, only {args.baseline.name} {result['only_first']}, only {other.name} "
                 f"{result['only_second']}, neither {result['neither']}; exact McNemar p = "

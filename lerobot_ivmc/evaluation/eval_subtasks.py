@@ -28,6 +28,7 @@ from lerobot.scripts.lerobot_eval import eval_policy
 from lerobot.utils.constants import OBS_ENV_STATE
 from lerobot.utils.random_utils import set_seed
 
+from lerobot_ivmc.datasets.root_lock import EVAL_LOCK_FILE, RootLock
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
 from lerobot_ivmc.envs.vector_env import make_vector_env
 from lerobot_ivmc.evaluation.compatibility import check_policy_matches_env
@@ -43,7 +44,7 @@ from lerobot_ivmc.evaluation.recovery_videos import (
 from lerobot_ivmc.evaluation.traces import TRACES_FILE, episode_traces, save_traces
 from lerobot_ivmc.recovery.config import RecoveryConfig
 from lerobot_ivmc.recovery.controller import IntrospectiveController
-from lerobot_ivmc.recovery.threshold import ThresholdRecord, resolve_threshold
+from lerobot_ivmc.recovery.threshold import ThresholdRecord, check_finite, resolve_threshold
 from lerobot_ivmc.scripts.errors import cli_main
 
 logger = logging.getLogger(__name__)
@@ -130,11 +131,18 @@ def evaluate(cfg: IvmcEvalConfig, ignore_stored_threshold: bool = False) -> dict
     check_recovery_request(cfg)
     check_policy_matches_env(cfg.policy, cfg.env)
     output_dir = Path(cfg.output_dir)
-    if (output_dir / EVAL_INFO_FILE).exists():
-        raise FileExistsError(
-            f"{output_dir / EVAL_INFO_FILE} exists: pass another --output_dir (results are never "
-            "overwritten)."
-        )
+    # One evaluation writes a folder at a time (a second one would mix its videos and results with ours).
+    with RootLock(output_dir, EVAL_LOCK_FILE, "evaluation", "--output_dir", FileExistsError):
+        if (output_dir / EVAL_INFO_FILE).exists():
+            raise FileExistsError(
+                f"{output_dir / EVAL_INFO_FILE} exists: pass another --output_dir (results are never "
+                "overwritten)."
+            )
+        return run_evaluation(cfg, output_dir, ignore_stored_threshold)
+
+
+def run_evaluation(cfg: IvmcEvalConfig, output_dir: Path, ignore_stored_threshold: bool) -> dict:
+    """`evaluate`'s run, in the output folder it holds."""
     is_bayesian = cfg.policy.type == "bvmc"
     threshold, window, source = None, 0, "none"
     if is_bayesian:
@@ -226,7 +234,9 @@ def add_recovery_results(
         record["recoveries"] = episode["events"]
         record["recovery_steps"] = recovery_phase_summary(episode)
     save_traces(output_dir / TRACES_FILE, episodes, [e["seed"] for e in info["per_episode"]])
-    scores = [e["max_uncertainty"] for e in episodes]
+    scores = list(
+        check_finite("The episodes' maximum uncertainty u", [e["max_uncertainty"] for e in episodes])
+    )
     binned = success_by_uncertainty_bins(scores, successes)
     title = f"{cfg.env.task}, {cfg.policy.type} #fc={cfg.policy.num_fc_layers}, recovery={cfg.recovery.mode}"
     plot_success_by_uncertainty(binned, output_dir / FIG3_FILE, title)

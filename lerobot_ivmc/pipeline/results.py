@@ -71,7 +71,7 @@ def table_rows(cfg: PipelineConfig, stages: list[Stage], fcs: list[int]) -> list
             # The rows saw the same scenes: paired task outcomes against VMC and BVMC (exact McNemar).
             success = list(row["subtasks"])[-1]
             row["paired"] = {
-                f"vs_{other}": paired_outcomes(infos[other]["per_episode"], info["per_episode"], success)
+                f"vs_{other}": paired_outcomes(infos[other], info, success)
                 for other in ("vmc", "none")
                 if other in infos and other != method
             }

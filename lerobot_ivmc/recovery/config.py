@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 # none: Bayesian VMC without recovery; min_unc: the paper's back-track and minimum-uncertainty recovery;
@@ -70,6 +71,11 @@ class RecoveryConfig:
     def __post_init__(self) -> None:
         if self.mode not in RECOVERY_MODES:
             raise ValueError(f"--recovery.mode must be one of {RECOVERY_MODES}, got {self.mode!r}.")
+        if self.threshold is not None and not math.isfinite(self.threshold):
+            raise ValueError(
+                f"--recovery.threshold must be a finite number, got {self.threshold}: a NaN threshold never "
+                "fires, so recovery would silently be off."
+            )
         if self.window is not None and self.window < 1:
             raise ValueError(f"--recovery.window must be >= 1 step, got {self.window}.")
         for name in ("initial_interval", "recovery_steps", "backtrack_horizon", "max_videos"):

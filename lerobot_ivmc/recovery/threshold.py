@@ -15,6 +15,20 @@ THRESHOLD_FILE = "recovery_threshold.json"
 DEFAULT_WINDOW = 20  # the paper: "a sliding window of 20 frames best avoids noisy peaks"
 
 
+def check_finite(name: str, values: Sequence[float] | np.ndarray | float) -> np.ndarray:
+    """`values` as a float array if every one is finite, else a ValueError naming `name` and the first bad
+    entries: a NaN threshold or uncertainty would silently turn recovery off (NaN > C is never true)."""
+    array = np.asarray(values, dtype=np.float64)
+    bad = np.flatnonzero(~np.isfinite(array.reshape(-1)))
+    if len(bad):
+        where = "" if array.ndim == 0 else f" at {bad[:5].tolist()}{' ...' if len(bad) > 5 else ''}"
+        raise ValueError(
+            f"{name} must be finite, got {array.reshape(-1)[bad[0]]}{where}: a NaN or infinite uncertainty "
+            "means a broken policy or record; retrain or pick the threshold again."
+        )
+    return array
+
+
 def window_sums(uncertainties: Sequence[float] | np.ndarray, window: int) -> np.ndarray:
     """Sum of the last `window` step uncertainties at every step (fewer at the episode's start).
 
@@ -55,7 +69,7 @@ def argmax_threshold(scores: Sequence[float], successes: Sequence[bool]) -> tupl
     Returns:
         The threshold C and the gain of every candidate u_i in increasing order of u.
     """
-    u = np.asarray(scores, dtype=np.float64)
+    u = check_finite("The validation episodes' u", scores)
     ok = np.asarray(successes, dtype=bool)
     if u.shape != ok.shape or u.ndim != 1 or len(u) == 0:
         raise ValueError(f"Need one success flag per score, got {u.shape} scores and {ok.shape} flags.")
@@ -82,7 +96,7 @@ def conformal_threshold(success_scores: Sequence[float], alpha: float) -> float:
     """
     if not 0.0 < alpha < 1.0:
         raise ValueError(f"alpha must lie in (0, 1), got {alpha}.")
-    scores = np.sort(np.asarray(success_scores, dtype=np.float64))
+    scores = np.sort(check_finite("The calibration episodes' u", success_scores))
     n = len(scores)
     rank = math.ceil((n + 1) * (1.0 - alpha) - 1e-9)  # the guard keeps 10 * 0.9 at 9
     if rank > n:
@@ -120,6 +134,10 @@ class ThresholdRecord:
     episodes: list[dict] = field(default_factory=list)
     alpha: float | None = None
 
+    def __post_init__(self) -> None:
+        check_finite("The threshold", self.threshold)
+        check_finite("The validation episodes' u", [e["u"] for e in self.episodes])
+
     def save(self, folder: Path) -> Path:
         path = Path(folder) / THRESHOLD_FILE
         path.write_text(json.dumps(asdict(self), indent=2))
@@ -133,8 +151,8 @@ class ThresholdRecord:
             return None
         try:
             return cls(**json.loads(path.read_text()))
-        except (json.JSONDecodeError, TypeError) as error:
-            raise ValueError(f"{path} is not a threshold record ({error}); pick it again.") from error
+        except (ValueError, TypeError, KeyError) as error:  # (json's decode error is a ValueError)
+            raise ValueError(f"{path} is not a valid threshold record ({error}); pick it again.") from error
 
 
 def resolve_threshold(
@@ -166,7 +184,7 @@ def resolve_threshold(
         )
     window = window or (record.window if record is not None else DEFAULT_WINDOW)
     if override is not None:
-        return override, window, "override"
+        return float(check_finite("--recovery.threshold", override)), window, "override"
     if record is not None:
         return record.threshold, window, "checkpoint"
     if mode != "none":

@@ -18,7 +18,7 @@ from lerobot.configs import parser
 
 from lerobot_ivmc.evaluation.detection import auroc, conformal_sweep, metrics_at_threshold, plot_detection
 from lerobot_ivmc.evaluation.traces import TRACES_FILE, load_traces
-from lerobot_ivmc.recovery.threshold import ThresholdRecord, conformal_threshold
+from lerobot_ivmc.recovery.threshold import ThresholdRecord, check_finite, conformal_threshold
 from lerobot_ivmc.scripts.errors import cli_main
 
 logger = logging.getLogger(__name__)
@@ -64,8 +64,22 @@ def detect(cfg: DetectionConfig) -> dict:
         raise ValueError(
             f"The threshold was picked on {record.task!r}, the eval ran {info['run']['task']!r}."
         )
+    if not 0 < cfg.alpha < 1 or not all(0 < a < 1 for a in cfg.alphas):
+        raise ValueError(
+            f"--alpha and --alphas are false-alarm bounds in (0, 1), got {cfg.alpha}, {cfg.alphas}."
+        )
     episodes = info["per_episode"]
-    scores = [e["max_uncertainty"] for e in episodes]
+    validation_seeds = {e.get("seed") for e in record.episodes} - {None}
+    if info["run"]["split"] == record.split and validation_seeds & {e["seed"] for e in episodes}:
+        raise ValueError(
+            f"--eval_dir={cfg.eval_dir} ran the {record.split!r} scenes the threshold was picked on: its "
+            "metrics would be in-sample. Score a run on held-out scenes (--env.split=test)."
+        )
+    scores = list(
+        check_finite(
+            f"max_uncertainty in {cfg.eval_dir}/eval_info.json", [e["max_uncertainty"] for e in episodes]
+        )
+    )
     failures = [not e["success"] for e in episodes]
     traces = [t["window_sum"] for t in load_traces(Path(cfg.eval_dir) / TRACES_FILE)]
     calibration = [e["u"] for e in record.episodes if e["success"]]

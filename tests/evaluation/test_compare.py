@@ -1,20 +1,29 @@
-"""Paired comparison of two evaluations on the same scenes."""
+"""Paired comparison of two evaluations on the same scenes (`lerobot-ivmc-compare`)."""
 
 from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
 from lerobot_ivmc.evaluation.compare import paired_outcomes
 
 
-def episodes(flags: list[bool], seeds: list[int] | None = None) -> list[dict]:
+def run(flags: list[bool], seeds: list[int] | None = None, task: str = "pick_place", split: str = "test"):
+    """An eval record as `lerobot-ivmc-eval` writes it (the parts the comparison reads)."""
     seeds = seeds or list(range(len(flags)))
-    return [{"seed": s, "subtasks": {"reach": True, "place": f}} for s, f in zip(seeds, flags, strict=True)]
+    episodes = [
+        {"seed": s, "subtasks": {"reach": True, "place": f}} for s, f in zip(seeds, flags, strict=True)
+    ]
+    return {"run": {"task": task, "split": split, "seed": seeds[0]}, "per_episode": episodes}
 
 
 def test_counts_and_exact_mcnemar() -> None:
-    a = episodes([True, True, False, False, False, False, False, False])
-    b = episodes([True, False, True, True, True, True, True, False])
+    a = run([True, True, False, False, False, False, False, False])
+    b = run([True, False, True, True, True, True, True, False])
     result = paired_outcomes(a, b, "place")
     assert (result["both"], result["only_first"], result["only_second"], result["neither"]) == (1, 1, 5, 1)
     # 6 discordant pairs, 5 for b: two-sided binomial p = 2 * P(X >= 5 | n=6, 1/2) = 2 * 7/64
@@ -22,5 +31,39 @@ def test_counts_and_exact_mcnemar() -> None:
 
 
 def test_runs_on_other_scenes_are_refused() -> None:
-    with pytest.raises(ValueError, match="same --seed"):
-        paired_outcomes(episodes([True]), episodes([True], seeds=[5]), "place")
+    with pytest.raises(ValueError, match="share no scene"):
+        paired_outcomes(run([True]), run([True], seeds=[5]), "place")
+
+
+@pytest.mark.parametrize("key, other", [("split", {"split": "val"}), ("task", {"task": "push"})])
+def test_runs_of_another_split_or_task_are_refused(key: str, other: dict) -> None:
+    with pytest.raises(ValueError, match=f"different {key}s"):
+        paired_outcomes(run([True, False]), run([True, False], **other), "place")
+
+
+def test_runs_of_different_lengths_compare_the_scenes_they_share() -> None:
+    longer = run([True, False, True, False], seeds=[0, 1, 2, 3])
+    shorter = run([True, True], seeds=[0, 1])
+    result = paired_outcomes(longer, shorter, "place")
+    assert (result["episodes"], result["episodes_first"], result["episodes_second"]) == (2, 4, 2)
+    assert (result["both"], result["only_second"]) == (1, 1)
+
+
+def test_an_unknown_milestone_is_refused_naming_the_milestones() -> None:
+    with pytest.raises(ValueError, match=r"--milestone=bogus is not a milestone of pick_place: choose from"):
+        paired_outcomes(run([True]), run([True]), "bogus")
+
+
+def test_the_cli_names_a_truncated_record_in_one_line(tmp_path: Path) -> None:
+    good, bad = tmp_path / "good", tmp_path / "bad"
+    for folder in (good, bad):
+        folder.mkdir()
+    (good / "eval_info.json").write_text(json.dumps(run([True, False])))
+    (bad / "eval_info.json").write_text(json.dumps(run([True, False]))[:40])
+    command = [sys.executable, "-m", "lerobot_ivmc.evaluation.compare", str(good), str(bad)]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 2
+    assert f"{bad / 'eval_info.json'} is not a complete lerobot-ivmc-eval record" in result.stderr
+    command = [sys.executable, "-m", "lerobot_ivmc.evaluation.compare", str(good), str(good)]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0 and "2 paired scenes)" in result.stdout

@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
+from lerobot_ivmc.recovery.config import RecoveryConfig
 from lerobot_ivmc.recovery.threshold import (
+    THRESHOLD_FILE,
     ThresholdRecord,
     argmax_threshold,
+    conformal_threshold,
     max_window_sum,
     resolve_threshold,
     window_sums,
@@ -75,3 +80,20 @@ def test_resolve_threshold_prefers_override_and_refuses_mismatches() -> None:
         resolve_threshold("min_unc", None, None, record(), "push")
     with pytest.raises(ValueError, match="window of 20 steps, not 10"):
         resolve_threshold("min_unc", None, 10, record(), "pick_place")
+
+
+def test_a_nan_threshold_or_uncertainty_is_refused_wherever_it_is_read_or_written(tmp_path) -> None:
+    """NaN > C is never true: a NaN threshold would silently turn recovery off (min unc = BVMC)."""
+    with pytest.raises(ValueError, match=r"validation episodes' u must be finite, got nan at \[1\]"):
+        argmax_threshold([0.1, float("nan"), 0.2], [False] * 3)
+    with pytest.raises(ValueError, match="must be finite"):
+        conformal_threshold([0.1, float("inf")] * 10, 0.1)
+    with pytest.raises(ValueError, match="The threshold must be finite"):
+        ThresholdRecord(**{**record().__dict__, "threshold": float("nan")})
+    (tmp_path / THRESHOLD_FILE).write_text(json.dumps({**record().__dict__, "threshold": float("nan")}))
+    with pytest.raises(ValueError, match=f"{tmp_path / THRESHOLD_FILE} is not a valid threshold record"):
+        ThresholdRecord.load(tmp_path)
+    with pytest.raises(ValueError, match="--recovery.threshold must be finite"):
+        resolve_threshold("min_unc", float("nan"), None, None, "push")
+    with pytest.raises(ValueError, match="--recovery.threshold must be a finite number"):
+        RecoveryConfig(mode="min_unc", threshold=float("nan"))
