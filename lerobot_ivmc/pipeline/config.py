@@ -9,6 +9,7 @@ fields of `lerobot-ivmc-train`; `foresight` is `lerobot-ivmc-foresight`'s `--for
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -247,6 +248,28 @@ class PipelineConfig:
             )
         if not 0 < self.threshold.alpha < 1:
             raise ValueError(f"--threshold.alpha must be in (0, 1), got {self.threshold.alpha}.")
+        if self.episode_length <= 0:
+            raise ValueError(f"--episode_length must be positive, got {self.episode_length}.")
+        if self.perception.steps > self.episode_length:
+            raise ValueError(
+                f"--perception.steps={self.perception.steps} is longer than an episode "
+                f"(--episode_length={self.episode_length})."
+            )
+        # LeRobot's eval config refuses more parallel envs than episodes.
+        for name, episodes in (("threshold", self.threshold), ("eval", self.eval), ("fig3", self.fig3)):
+            if episodes.batch_size > episodes.n_episodes:
+                raise ValueError(
+                    f"--{name}.batch_size={episodes.batch_size} is more than --{name}.n_episodes="
+                    f"{episodes.n_episodes}: lower the batch size or run more episodes."
+                )
+        if self.threshold.method == "conformal":
+            needed = math.ceil((1.0 - self.threshold.alpha) / self.threshold.alpha - 1e-9)
+            if self.threshold.n_episodes < needed:
+                raise ValueError(
+                    f"A conformal threshold at --threshold.alpha={self.threshold.alpha} needs at least "
+                    f"{needed} successful validation episodes: --threshold.n_episodes="
+                    f"{self.threshold.n_episodes} cannot give them. Run more, or raise the alpha."
+                )
         # The study sets these from --task, its folder and its own logs: another value would be ignored.
         c = self.collect
         if c.env.task and c.env.task != self.task:

@@ -6,6 +6,7 @@ import logging
 import os
 import sys
 from collections.abc import Callable
+from pathlib import Path
 
 from draccus.utils import DecodingError, ParsingError
 
@@ -19,9 +20,29 @@ def root_message(error: BaseException) -> str:
     return str(error)
 
 
+def check_policy_path(argv: list[str]) -> None:
+    """Refuse a `--policy.path` that is neither a folder here nor a hub repo id (LeRobot would take it for
+    a malformed repo id and say so, not that the folder is missing)."""
+    from huggingface_hub.utils import HFValidationError, validate_repo_id
+
+    for arg in argv:
+        if arg.startswith("--policy.path="):
+            path = arg.split("=", 1)[1]
+            if Path(path).exists():
+                continue
+            try:
+                validate_repo_id(path)
+            except HFValidationError:
+                raise FileNotFoundError(
+                    f"--policy.path={path}: no such folder (and not a hub repo id '<user>/<name>'); pass the "
+                    "pretrained_model folder of a checkpoint."
+                ) from None
+
+
 def run_cli(main: Callable[[], object]) -> None:
     """Run `main`; a bad input exits with status 2 and `error: <message>` (IVMC_TRACEBACK=1 re-raises)."""
     try:
+        check_policy_path(sys.argv[1:])
         main()
     except USER_ERRORS as error:
         if os.environ.get("IVMC_TRACEBACK"):

@@ -1,6 +1,8 @@
 """A checkpoint is checked against the env before the first step, naming the flag that fixes a mismatch."""
 
 import json
+import sys
+from unittest import mock
 
 import pytest
 from lerobot.configs.policies import PreTrainedConfig
@@ -85,3 +87,15 @@ def test_the_cli_ends_on_a_mismatch_with_one_line(capsys):
     assert exit_info.value.code == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("error: This vmc checkpoint does not fit the ivmc env")
+
+
+def test_a_missing_policy_folder_is_named_as_missing(capsys, tmp_path):
+    missing = tmp_path / "outputs" / "train" / "pretrained_model"
+    with mock.patch.object(sys, "argv", ["lerobot-ivmc-eval", f"--policy.path={missing}"]):
+        with pytest.raises(SystemExit) as exit_info:
+            run_cli(lambda: None)
+    assert exit_info.value.code == 2
+    assert capsys.readouterr().err == (
+        f"error: --policy.path={missing}: no such folder (and not a hub repo id '<user>/<name>'); pass the "
+        "pretrained_model folder of a checkpoint.\n"
+    )

@@ -199,6 +199,12 @@ def test_bad_input_is_refused_with_what_to_do(capsys: pytest.CaptureFixture) -> 
         ("--train.policy.chunk_memory=carried", "--train.policy.chunk_memory must be one of"),
         ("--train.batch_size=0", "--train.batch_size must be positive"),
         ("--eval.batch_size=0", "--eval.batch_size must be positive"),
+        ("--threshold.n_episodes=1", "--threshold.batch_size=2 is more than --threshold.n_episodes=1"),
+        ("--eval.n_episodes=1", "--eval.batch_size=2 is more than --eval.n_episodes=1"),
+        ("--fig3.n_episodes=1", "--fig3.batch_size=2 is more than --fig3.n_episodes=1"),
+        ("--episode_length=0", "--episode_length must be positive"),
+        ("--perception.steps=40", "--perception.steps=40 is longer than an episode (--episode_length=30)"),
+        ("--threshold.method=conformal", "needs at least 9 successful validation episodes"),
         # Set by the study itself: an override would be ignored.
         ("--collect.env.task=pick_place", "differs from --task='push'"),
         ("--collect.dataset.root=/tmp/demos", "--collect.dataset.root is set by the study"),
