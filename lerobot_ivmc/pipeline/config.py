@@ -149,7 +149,9 @@ class PipelineConfig:
         recovery_modes: the BVMC rows: "none" (plain BVMC), "rand", "init", "min_unc".
         fig3: the Fig. 3 evaluation (BVMC without recovery, many test episodes) and detection metrics.
         async_envs: foresight, threshold and evaluation stages step each sub-env in its own process
-            (`--eval.use_async_envs`; the same episodes as in one process, benchmarks/bench_eval.py).
+            (`--eval.use_async_envs`; the same episodes as in one process). Off by default: on 2 cores, 10
+            sub-env processes evaluated 100 pick_place episodes in 118.7 s against 107.2 s in one process
+            (benchmarks/bench_eval.py, README "Benchmarks"); machines with more cores than that gain.
     """
 
     task: str = ""
@@ -165,7 +167,7 @@ class PipelineConfig:
     eval: EpisodesConfig = field(default_factory=EpisodesConfig)
     recovery_modes: list[str] = field(default_factory=lambda: list(RECOVERY_MODES))
     fig3: EpisodesConfig = field(default_factory=lambda: EpisodesConfig(n_episodes=800))
-    async_envs: bool = True
+    async_envs: bool = False
 
     def __post_init__(self) -> None:
         self.validate()

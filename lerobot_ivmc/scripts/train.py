@@ -21,6 +21,7 @@ Example (the policies' defaults train on whole demos: 2 a batch, 10,000 steps, R
 from __future__ import annotations
 
 import logging
+from pathlib import Path
 
 from lerobot.datasets import factory
 from lerobot.scripts import lerobot_train
@@ -37,6 +38,13 @@ def make_cached_dataset(cfg) -> FrameCache:
     """LeRobot's `make_dataset(cfg)`, its frames decoded into memory; fills N from the frames trained on."""
     if cfg.dataset.streaming:
         raise ValueError("lerobot-ivmc-train caches a local dataset; drop --dataset.streaming=true.")
+    if cfg.dataset.root is not None and not (Path(cfg.dataset.root) / "meta" / "info.json").is_file():
+        raise FileNotFoundError(
+            f"--dataset.root={cfg.dataset.root} holds no LeRobot dataset (no meta/info.json): pass the "
+            "folder lerobot-ivmc-collect wrote."
+        )
+    if cfg.steps <= 0:
+        raise ValueError(f"--steps must be positive, got {cfg.steps}.")
     # Resuming (or fine-tuning) a checkpoint saved before sequence training became the default: its samples
     # are those it was trained with, so its config is completed before the dataset is built from it.
     pretrained = getattr(cfg.policy, "pretrained_path", None)

@@ -181,3 +181,22 @@ def test_the_checkpoint_records_the_render_style_of_its_dataset(tiny_dataset: Pa
     last_line = result.stderr.strip().splitlines()[-1]
     assert last_line.startswith("error: The dataset's frames are drawn in the 'fetch' render style, but ")
     assert not (tmp_path / "refused" / "checkpoints").exists()
+
+
+@pytest.mark.parametrize(
+    "case, expected",
+    [
+        ("missing_root", "holds no LeRobot dataset (no meta/info.json)"),
+        ("zero_steps", "--steps must be positive, got 0."),
+        ("three_fc", "num_fc_layers (#fc) must be 1 or 2 as in the paper, got 3."),
+    ],
+)
+def test_bad_training_input_ends_on_one_line(case: str, expected: str, tiny_dataset: Path, tmp_path: Path):
+    dataset = tmp_path / "nowhere" if case == "missing_root" else tiny_dataset
+    steps = 0 if case == "zero_steps" else 1
+    extra = ("--policy.num_fc_layers=3",) if case == "three_fc" else ()
+    cmd = train_command("lerobot-ivmc-train", "vmc", dataset, tmp_path / "out", steps, *extra)
+    result = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 2, result.stderr[-2000:]
+    assert "Traceback" not in result.stderr
+    assert result.stderr.strip().splitlines()[-1].startswith("error: ") and expected in result.stderr
