@@ -7,8 +7,8 @@ reads the live env's observations unchanged.
 
 from __future__ import annotations
 
+from lerobot_ivmc.envs.camera import CAMERA_NAME
 from lerobot_ivmc.envs.fetch_env import ARM_JOINTS, FINGER_JOINTS
-from lerobot_ivmc.envs.scene_model import CAMERA_NAME
 
 # The paper records observation-action tuples at 25 Hz; a demonstration lasts 4 s.
 DEMO_FPS = 25

@@ -14,9 +14,9 @@ import numpy as np
 
 from lerobot_ivmc.datasets import staging
 from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, make_task_env
+from lerobot_ivmc.envs.camera import CAMERA_NAME
 from lerobot_ivmc.envs.fetch_env import DELTA_EE_DIM, IvmcFetchEnv
 from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE
-from lerobot_ivmc.envs.scene_model import CAMERA_NAME
 from lerobot_ivmc.experts import WaypointExpert, make_expert, run_expert_episode
 
 

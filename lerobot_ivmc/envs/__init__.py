@@ -1,16 +1,27 @@
-"""Fetch manipulation tasks of the paper as gymnasium envs, registered under the `lerobot_ivmc/` namespace."""
+"""Fetch manipulation tasks of the paper as gymnasium envs, registered under the `lerobot_ivmc/` namespace.
+
+Importing this package is light: the gym ids are registered by entry point and the env classes (with
+MuJoCo and gymnasium-robotics) load only when a task env is first built or `TASK_ENVS` is first read, so
+installing the plugin leaves LeRobot's other commands as they were.
+"""
 
 from __future__ import annotations
 
+import importlib
+from typing import TYPE_CHECKING, Any
+
 import gymnasium as gym
 
-from lerobot_ivmc.envs.fetch_env import IvmcFetchEnv
-from lerobot_ivmc.envs.tasks.pick_place import PickPlaceEnv
-from lerobot_ivmc.envs.tasks.pick_reach import PickReachEnv
-from lerobot_ivmc.envs.tasks.push import PushEnv
+if TYPE_CHECKING:
+    from lerobot_ivmc.envs.fetch_env import IvmcFetchEnv
 
-TASK_ENVS: dict[str, type[IvmcFetchEnv]] = {env.task: env for env in (PushEnv, PickPlaceEnv, PickReachEnv)}
-TASKS = tuple(TASK_ENVS)
+# Each task's env class, as "module:class" (imported on first use).
+TASK_ENTRY_POINTS = {
+    "push": "lerobot_ivmc.envs.tasks.push:PushEnv",
+    "pick_place": "lerobot_ivmc.envs.tasks.pick_place:PickPlaceEnv",
+    "pick_reach": "lerobot_ivmc.envs.tasks.pick_reach:PickReachEnv",
+}
+TASKS = tuple(TASK_ENTRY_POINTS)
 # The paper: "An episode terminates after the task is completed or after the maximum episode limit of 200".
 MAX_EPISODE_STEPS = 200
 # Expert demonstrations last 4 s at 25 Hz.
@@ -19,7 +30,7 @@ DEMO_EPISODE_STEPS = 100
 
 def check_task(task: str) -> str:
     """Return `task` if it names one of the tasks, else raise a ValueError that lists them."""
-    if task not in TASK_ENVS:
+    if task not in TASK_ENTRY_POINTS:
         raise ValueError(f"Unknown task {task!r}; choose one of {TASKS}.")
     return task
 
@@ -36,12 +47,19 @@ def check_demo_episode_steps(flag: str, steps: int) -> int:
 
 def gym_id(task: str) -> str:
     """The gymnasium id of a task, e.g. ``lerobot_ivmc/PickPlace-v0``."""
-    return f"lerobot_ivmc/{TASK_ENVS[check_task(task)].__name__.removesuffix('Env')}-v0"
+    class_name = TASK_ENTRY_POINTS[check_task(task)].rsplit(":", 1)[1]
+    return f"lerobot_ivmc/{class_name.removesuffix('Env')}-v0"
+
+
+def task_env_class(task: str) -> type[IvmcFetchEnv]:
+    """The env class of a task (importing the simulator on first use)."""
+    module, name = TASK_ENTRY_POINTS[check_task(task)].split(":")
+    return getattr(importlib.import_module(module), name)
 
 
 def make_task_env(task: str, **kwargs) -> IvmcFetchEnv:
     """Build the bare (unwrapped) env of a task."""
-    return TASK_ENVS[check_task(task)](**kwargs)
+    return task_env_class(task)(**kwargs)
 
 
 def make_task_env_from_config(env_cfg) -> IvmcFetchEnv:
@@ -50,22 +68,29 @@ def make_task_env_from_config(env_cfg) -> IvmcFetchEnv:
     return make_task_env(env_cfg.task, **kwargs)
 
 
-for _task, _env in TASK_ENVS.items():
+def __getattr__(name: str) -> Any:
+    """`TASK_ENVS` (task -> env class) and `IvmcFetchEnv`, loaded with the simulator on first access."""
+    if name == "TASK_ENVS":
+        return {task: task_env_class(task) for task in TASKS}
+    if name == "IvmcFetchEnv":
+        return importlib.import_module("lerobot_ivmc.envs.fetch_env").IvmcFetchEnv
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+for _task, _entry_point in TASK_ENTRY_POINTS.items():
     if gym_id(_task) not in gym.registry:
-        gym.register(
-            id=gym_id(_task),
-            entry_point=f"{_env.__module__}:{_env.__name__}",
-            max_episode_steps=MAX_EPISODE_STEPS,
-        )
+        gym.register(id=gym_id(_task), entry_point=_entry_point, max_episode_steps=MAX_EPISODE_STEPS)
 
 __all__ = [
     "DEMO_EPISODE_STEPS",
     "MAX_EPISODE_STEPS",
     "TASKS",
+    "TASK_ENTRY_POINTS",
     "TASK_ENVS",
     "IvmcFetchEnv",
     "check_demo_episode_steps",
     "check_task",
     "gym_id",
     "make_task_env",
+    "task_env_class",
 ]

@@ -9,9 +9,8 @@ from lerobot.envs.configs import EnvConfig
 from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_IMAGES, OBS_STATE
 
 from lerobot_ivmc.envs import MAX_EPISODE_STEPS, check_task, gym_id
-from lerobot_ivmc.envs.fetch_env import OBS_TYPES, check_image_size
+from lerobot_ivmc.envs.camera import CAMERA_NAME, OBS_TYPES, check_image_size
 from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE, check_render_style
-from lerobot_ivmc.envs.scene_model import CAMERA_NAME
 from lerobot_ivmc.envs.scenes import SPLITS
 
 IMAGE_KEY = f"{OBS_IMAGES}.{CAMERA_NAME}"

@@ -27,6 +27,7 @@ from gymnasium.utils import EzPickle  # noqa: E402
 from gymnasium_robotics.utils import mujoco_utils  # noqa: E402
 
 from lerobot_ivmc.envs import scene_model  # noqa: E402
+from lerobot_ivmc.envs.camera import MAX_IMAGE_SIZE, OBS_TYPES, check_image_size  # noqa: E402, F401
 from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE, RENDER_STYLES, check_render_style  # noqa: E402
 from lerobot_ivmc.envs.scenes import Grid, Scene, cell_jitter, scenes_of_split  # noqa: E402
 
@@ -44,12 +45,6 @@ ARM_JOINTS = (
 FINGER_JOINTS = ("robot0:l_gripper_finger_joint", "robot0:r_gripper_finger_joint")
 FINGER_GEOMS = ("robot0:l_gripper_finger_link", "robot0:r_gripper_finger_link")
 GRIP_SITE = "robot0:grip"
-OBS_TYPES = ("pixels_agent_pos", "state")
-# Largest camera image and render() frame side, in pixels, which every OpenGL implementation's renderbuffers
-# allow. Each frame size gets its own renderer whose offscreen framebuffer is exactly that size: MuJoCo
-# would otherwise render into the model's `vis.global_.offwidth` x `offheight` (640 x 480 in the Fetch
-# XML), and clearing and resolving that buffer cost most of a 64-px frame (the pixels are the same).
-MAX_IMAGE_SIZE = 2048
 
 
 GRIPPER_CLOSE, GRIPPER_NOOP, GRIPPER_OPEN = -1, 0, 1
@@ -376,14 +371,6 @@ class IvmcFetchEnv(gym.Env, EzPickle):
                 "Set MUJOCO_GL=egl (or osmesa) in the environment before anything imports mujoco; "
                 "lerobot_ivmc sets it only if mujoco was not imported first."
             ) from error
-
-
-def check_image_size(name: str, size: Any) -> None:
-    """Refuse an image side MuJoCo cannot render here, naming the allowed range."""
-    if not isinstance(size, int | np.integer) or isinstance(size, bool) or not 0 < size <= MAX_IMAGE_SIZE:
-        raise ValueError(
-            f"{name} must be a positive integer number of pixels, at most {MAX_IMAGE_SIZE}, got {size!r}."
-        )
 
 
 def _parse_action(action: np.ndarray) -> tuple[np.ndarray, int]:

@@ -6,13 +6,19 @@ it with `mujoco.MjSpec`, so the robot model and its meshes stay the maintained u
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
-import mujoco
-import numpy as np
+# Headless rendering: EGL works without a display (Mesa on CPU machines). Respect a user's choice. Set
+# only once the simulator is loaded, i.e. when an ivmc env is built, not when the plugin is imported.
+os.environ.setdefault("MUJOCO_GL", "egl")
 
-CAMERA_NAME = "front"
+import mujoco  # noqa: E402
+import numpy as np  # noqa: E402
+
+from lerobot_ivmc.envs.camera import CAMERA_NAME  # noqa: E402
+
 OBJECT_BODY = "object0"
 TARGET_BODY = "target0"
 TABLE_TOP_Z = 0.4
