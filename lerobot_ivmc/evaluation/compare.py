@@ -74,6 +74,35 @@ def paired_outcomes(a: dict, b: dict, milestone: str) -> dict:
     }
 
 
+def rescue_record(bvmc: dict, recovered: dict, milestone: str) -> dict:
+    """What a recovery mode did with the failures of the same policy without recovery, scene by scene.
+
+    Args:
+        bvmc: the run of the policy without recovery (`load_run`), with each episode's u.
+        recovered: the run with a recovery mode on the same scenes, with the threshold it used.
+        milestone: the subtask that counts as success (the task's last one).
+
+    Returns:
+        failures: scenes the policy failed without recovery; flagged: those of them whose u crossed the
+        recovery run's threshold (where a recovery could start); rescued: failed without recovery,
+        succeeded with it; lost: the reverse; rescue_rate: (rescued - lost) / failures (None without
+        failures); mcnemar_exact_p: the paired test of rescued against lost.
+    """
+    pair = paired_outcomes(bvmc, recovered, milestone)
+    threshold = recovered["recovery"]["threshold"]
+    shared = {e["seed"] for e in recovered["per_episode"]}
+    failures = [e for e in bvmc["per_episode"] if e["seed"] in shared and not e["subtasks"][milestone]]
+    rescued, lost = pair["only_second"], pair["only_first"]
+    return {
+        "failures": len(failures),
+        "flagged": sum(e["max_uncertainty"] > threshold for e in failures),
+        "rescued": rescued,
+        "lost": lost,
+        "rescue_rate": (rescued - lost) / len(failures) if failures else None,
+        "mcnemar_exact_p": pair["mcnemar_exact_p"],
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter

@@ -11,7 +11,7 @@ import statistics
 from dataclasses import asdict
 from pathlib import Path
 
-from lerobot_ivmc.evaluation.compare import EVAL_INFO_FILE, paired_outcomes
+from lerobot_ivmc.evaluation.compare import EVAL_INFO_FILE, paired_outcomes, rescue_record
 from lerobot_ivmc.evaluation.fig3 import most_negative_rho
 from lerobot_ivmc.evaluation.perception_check import DRIVERS as PERCEPTION_DRIVERS
 from lerobot_ivmc.pipeline.config import POLICY_TYPES, PipelineConfig
@@ -64,12 +64,14 @@ def table_rows(cfg: PipelineConfig, stages: list[Stage], fcs: list[int]) -> list
                     for sub, v in PAPER_TABLE[cfg.task][fc][method].items()
                 },
             }
+            success = list(row["subtasks"])[-1]
             if method not in ("vmc", "none") and "recovery" in info:
                 row["recoveries"] = info["recovery"]["num_recoveries"]
                 row["episodes_with_recovery"] = info["recovery"]["episodes_with_recovery"]
                 row["threshold"] = info["recovery"]["threshold"]
+                if "none" in infos:
+                    row["rescue"] = rescue_record(infos["none"], info, success)
             # The rows saw the same scenes: paired task outcomes against VMC and BVMC (exact McNemar).
-            success = list(row["subtasks"])[-1]
             row["paired"] = {
                 f"vs_{other}": paired_outcomes(infos[other], info, success)
                 for other in ("vmc", "none")
@@ -218,8 +220,9 @@ def markdown_table(rows: list[dict]) -> str:
     n = rows[0]["subtasks"][subtasks[0]]["n"]
     head = " | ".join(f"{s} [%] (paper)" for s in subtasks)
     lines = [
-        f"| model, {n} test scenes | #fc | {head} | recoveries (episodes) | vs BVMC: gained / lost, p |",
-        "|---|---|" + "---|" * len(subtasks) + "---|---|",
+        f"| model, {n} test scenes | #fc | {head} | recoveries (episodes) | vs BVMC: gained / lost, p | "
+        "BVMC's failures (flagged): rescue rate |",
+        "|---|---|" + "---|" * len(subtasks) + "---|---|---|",
     ]
     for row in rows:
         cells = []
@@ -232,8 +235,17 @@ def markdown_table(rows: list[dict]) -> str:
         versus = (
             f"{pair['only_second']} / {pair['only_first']}, {pair['mcnemar_exact_p']:.2f}" if pair else "-"
         )
+        rescue = row.get("rescue")
+        rescued = (
+            f"{rescue['failures']} ({rescue['flagged']}): "
+            + ("-" if rescue["rescue_rate"] is None else f"{rescue['rescue_rate']:.0%}")
+            if rescue
+            else "-"
+        )
         lines.append(
-            f"| {row['label']} | {row['num_fc_layers']} | " + " | ".join(cells) + f" | {rec} | {versus} |"
+            f"| {row['label']} | {row['num_fc_layers']} | "
+            + " | ".join(cells)
+            + f" | {rec} | {versus} | {rescued} |"
         )
     return "\n".join(lines) + "\n"
 

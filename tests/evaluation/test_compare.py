@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from lerobot_ivmc.evaluation.compare import paired_outcomes
+from lerobot_ivmc.evaluation.compare import paired_outcomes, rescue_record
 
 
 def run(flags: list[bool], seeds: list[int] | None = None, task: str = "pick_place", split: str = "test"):
@@ -67,3 +67,22 @@ def test_the_cli_names_a_truncated_record_in_one_line(tmp_path: Path) -> None:
     command = [sys.executable, "-m", "lerobot_ivmc.evaluation.compare", str(good), str(good)]
     result = subprocess.run(command, capture_output=True, text=True, timeout=120)
     assert result.returncode == 0 and "2 paired scenes)" in result.stdout
+
+
+def test_rescue_counts_the_failures_a_recovery_turned_into_successes() -> None:
+    bvmc = run([False, False, False, True, True], seeds=[0, 1, 2, 3, 4])
+    for episode, u in zip(bvmc["per_episode"], [2.0, 0.5, 3.0, 0.1, 2.5], strict=True):
+        episode["max_uncertainty"] = u
+    recovered = run([True, False, False, True, False], seeds=[0, 1, 2, 3, 4])
+    recovered["recovery"] = {"threshold": 1.0}
+    rescue = rescue_record(bvmc, recovered, "place")
+    # 3 failures, 2 of them above C = 1.0; scene 0 rescued, scene 4 lost: (1 - 1) / 3.
+    assert (rescue["failures"], rescue["flagged"], rescue["rescued"], rescue["lost"]) == (3, 2, 1, 1)
+    assert rescue["rescue_rate"] == 0.0 and rescue["mcnemar_exact_p"] == 1.0
+    never_failed = run([True, True])
+    assert (
+        rescue_record(never_failed, {**run([True, True]), "recovery": {"threshold": 1.0}}, "place")[
+            "rescue_rate"
+        ]
+        is None
+    )
