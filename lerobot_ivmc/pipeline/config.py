@@ -61,9 +61,11 @@ class TrainStageConfig:
             natively (AVX512-BF16 or AMX); elsewhere bf16 is emulated, slower than fp32, and the study
             trains in fp32 (the stage's command line in its log shows which).
         policy: policy fields passed as `--policy.<name>=`.
-        extra_seeds: further training seeds, for the spread of training: vmc and bvmc of every #fc are
-            trained again from each and evaluated without recovery on the same test scenes. The Table I
-            rows (and the foresight head, threshold and recovery rows) stay those of `seed`.
+        extra_seeds: further training seeds, for the spread of training: each gets the whole chain of
+            every #fc (vmc and bvmc trained and checked, its own foresight head and threshold, every Table
+            I row on the same test scenes, detection), and the results hold each row per seed, its mean and
+            standard deviation over the seeds, and each recovery row's rescue against its own seed's
+            BVMC, pooled over the seeds. The Table I rows themselves stay those of `seed`.
 
     Every run trains from `seed` (and again from each of `extra_seeds`); the final checkpoint is the one
     evaluated.
@@ -196,8 +198,8 @@ class PipelineConfig:
             raise ValueError(f"Training seeds must be in [0, 2**32), got --train.seed / extra_seeds {seeds}.")
         if self.train.extra_seeds and "none" not in self.recovery_modes:
             raise ValueError(
-                "--train.extra_seeds compares each seed's BVMC without recovery with the main seed's, which "
-                "needs 'none' in --recovery_modes."
+                "--train.extra_seeds compares each seed's recovery rows with its own BVMC without recovery, "
+                "which needs 'none' in --recovery_modes."
             )
         if len(set(seeds)) != len(seeds):
             raise ValueError(

@@ -11,6 +11,8 @@ import statistics
 from dataclasses import asdict
 from pathlib import Path
 
+from scipy import stats
+
 from lerobot_ivmc.evaluation.compare import EVAL_INFO_FILE, paired_outcomes, rescue_record
 from lerobot_ivmc.evaluation.fig3 import most_negative_rho
 from lerobot_ivmc.evaluation.perception_check import DRIVERS as PERCEPTION_DRIVERS
@@ -24,7 +26,6 @@ from lerobot_ivmc.pipeline.stages import (
     fig3_stage_name,
     find_stage,
     perception_stage_name,
-    seed_eval_stage_name,
     seed_suffix,
     stage_output,
 )
@@ -89,33 +90,49 @@ def subtask_rates(info: dict) -> dict:
     }
 
 
+def chain_ended(cfg: PipelineConfig, fc: int, train_seed: int, ended: set[str]) -> bool:
+    """Whether a training seed's chain of #fc `fc` has finished (its last stage is the detection)."""
+    main = train_seed == cfg.train.seed
+    return f"detect_fc{fc}{seed_suffix(None if main else train_seed)}" in ended
+
+
 def training_seed_rows(
     cfg: PipelineConfig, stages: list[Stage], fcs: list[int], ended: set[str]
-) -> tuple[list[dict], list[dict]]:
-    """VMC and BVMC (no recovery) from every training seed whose evaluation has ended, for the #fc values
-    `fcs`, and per (#fc, model) the mean and sample standard deviation of each subtask's rate over them."""
-    rows, summary = [], []
+) -> tuple[list[dict], list[dict], list[dict], list[dict]]:
+    """Every training seed's rows whose chain has ended, for the #fc values `fcs`.
+
+    Returns:
+        rows: VMC and BVMC without recovery per seed; summary: per (#fc, model) each subtask's mean and
+        sample standard deviation over the seeds; recovery_rows: each recovery mode per seed, with its
+        `rescue` against that seed's own BVMC; pooled_rescue: per (#fc, mode) the rescue counts summed over
+        the seeds, the pooled rescue rate, and the exact test of rescued against lost over every seed's
+        paired scenes (a matched pair per scene and seed: the Mantel-Haenszel test for matched pairs).
+    """
+    rows, summary, recovery_rows, pooled = [], [], [], []
     for fc in fcs:
-        for policy_type, method in zip(POLICY_TYPES, ("vmc", "none"), strict=True):
+        seeds = [s for s in cfg.train.seeds if chain_ended(cfg, fc, s, ended)]
+        for method in ["vmc", *cfg.recovery_modes]:
             per_seed = []
-            for train_seed in cfg.train.seeds:
-                if train_seed == cfg.train.seed:
-                    stage = eval_row_stage(fc, method)
-                else:
-                    stage = seed_eval_stage_name(policy_type, fc, train_seed)
-                if stage not in ended:
-                    continue
-                info = load_eval_info(stage_output(stages, stage))
-                per_seed.append(
-                    {
-                        "task": cfg.task,
-                        "model": policy_type.upper(),
-                        "num_fc_layers": fc,
-                        "train_seed": train_seed,
-                        "subtasks": subtask_rates(info),
-                    }
-                )
-            rows += per_seed
+            for train_seed in seeds:
+                extra = None if train_seed == cfg.train.seed else train_seed
+                info = load_eval_info(stage_output(stages, eval_row_stage(fc, method, extra)))
+                row = {
+                    "task": cfg.task,
+                    "model": "VMC" if method == "vmc" else "BVMC",
+                    "num_fc_layers": fc,
+                    "train_seed": train_seed,
+                    "subtasks": subtask_rates(info),
+                }
+                if method not in ("vmc", "none"):
+                    bvmc = load_eval_info(stage_output(stages, eval_row_stage(fc, "none", extra)))
+                    success = list(row["subtasks"])[-1]
+                    row = {**row, "method": method, "rescue": rescue_record(bvmc, info, success)}
+                per_seed.append(row)
+            if method in ("vmc", "none"):
+                rows += per_seed
+            else:
+                recovery_rows += per_seed
+                pooled.append(pooled_rescue(fc, method, per_seed))
             if len(per_seed) < 2:
                 continue
             spread = {}
@@ -124,13 +141,31 @@ def training_seed_rows(
                 spread[sub] = {"mean": statistics.mean(rates), "std": statistics.stdev(rates), "rates": rates}
             summary.append(
                 {
-                    "model": policy_type.upper(),
+                    "model": METHOD_LABELS[method] if method != "vmc" else "VMC",
+                    "method": method,
                     "num_fc_layers": fc,
                     "train_seeds": [r["train_seed"] for r in per_seed],
                     "subtasks": spread,
                 }
             )
-    return rows, summary
+    return rows, summary, recovery_rows, [p for p in pooled if p is not None]
+
+
+def pooled_rescue(fc: int, method: str, per_seed: list[dict]) -> dict | None:
+    """A recovery mode's rescue counts summed over the seeds' rows, with the pooled exact test."""
+    if not per_seed:
+        return None
+    total = {k: sum(r["rescue"][k] for r in per_seed) for k in ("failures", "flagged", "rescued", "lost")}
+    discordant = total["rescued"] + total["lost"]
+    p = stats.binomtest(total["rescued"], discordant, 0.5).pvalue if discordant else 1.0
+    return {
+        "num_fc_layers": fc,
+        "method": method,
+        "train_seeds": [r["train_seed"] for r in per_seed],
+        **total,
+        "rescue_rate": (total["rescued"] - total["lost"]) / total["failures"] if total["failures"] else None,
+        "exact_p": float(p),
+    }
 
 
 def training_seed_table(rows: list[dict], summary: list[dict]) -> str:
@@ -138,21 +173,39 @@ def training_seed_table(rows: list[dict], summary: list[dict]) -> str:
     subtasks = list(rows[0]["subtasks"])
     n = rows[0]["subtasks"][subtasks[0]]["n"]
     lines = [
-        f"| model (no recovery), {n} test scenes | #fc | training seed | "
-        + " | ".join(f"{s} [%]" for s in subtasks)
-        + " |",
+        f"| row, {n} test scenes | #fc | training seed | " + " | ".join(f"{s} [%]" for s in subtasks) + " |",
         "|---|---|---|" + "---|" * len(subtasks),
     ]
     for row in rows:
         cells = [f"{row['subtasks'][s]['rate']:.1f} +- {row['subtasks'][s]['stderr']:.1f}" for s in subtasks]
+        label = METHOD_LABELS[row["method"]] if "method" in row else row["model"]
         lines.append(
-            f"| {row['model']} | {row['num_fc_layers']} | {row['train_seed']} | " + " | ".join(cells) + " |"
+            f"| {label} | {row['num_fc_layers']} | {row['train_seed']} | " + " | ".join(cells) + " |"
         )
     for entry in summary:
         cells = [f"{entry['subtasks'][s]['mean']:.1f} +- {entry['subtasks'][s]['std']:.1f}" for s in subtasks]
         seeds = ", ".join(map(str, entry["train_seeds"]))
         label = f"{entry['model']}, mean +- sd over {len(entry['train_seeds'])} seeds"
         lines.append(f"| {label} | {entry['num_fc_layers']} | {seeds} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def pooled_rescue_table(pooled: list[dict]) -> str:
+    """Markdown: per (#fc, recovery mode) BVMC's failures over the seeds and what the mode did with them."""
+    if not pooled:
+        return ""
+    lines = [
+        "\n| recovery, over training seeds | #fc | seeds | BVMC's failures (flagged) | rescued / lost | "
+        "rescue rate | exact p |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for entry in pooled:
+        rate = "-" if entry["rescue_rate"] is None else f"{entry['rescue_rate']:.0%}"
+        lines.append(
+            f"| {METHOD_LABELS[entry['method']]} | {entry['num_fc_layers']} | "
+            f"{', '.join(map(str, entry['train_seeds']))} | {entry['failures']} ({entry['flagged']}) | "
+            f"{entry['rescued']} / {entry['lost']} | {rate} | {entry['exact_p']:.3f} |"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -209,9 +262,11 @@ def load_eval_info(folder: Path) -> dict:
     return json.loads((folder / EVAL_INFO_FILE).read_text())
 
 
-def eval_row_stage(fc: int, method: str) -> str:
-    """The eval stage of a Table I row: VMC, or BVMC with a recovery mode."""
-    return eval_stage_name("vmc", fc, None) if method == "vmc" else eval_stage_name("bvmc", fc, method)
+def eval_row_stage(fc: int, method: str, train_seed: int | None = None) -> str:
+    """The eval stage of a Table I row: VMC, or BVMC with a recovery mode (of an extra training seed)."""
+    if method == "vmc":
+        return eval_stage_name("vmc", fc, None, train_seed)
+    return eval_stage_name("bvmc", fc, method, train_seed)
 
 
 def markdown_table(rows: list[dict]) -> str:
@@ -256,21 +311,9 @@ def finished_fcs(cfg: PipelineConfig, timings: list[StageResult]) -> list[int]:
     return [fc for fc in cfg.train.num_fc_layers if f"detect_fc{fc}" in ended]
 
 
-def seed_eval_stages(cfg: PipelineConfig, fcs: list[int]) -> list[str]:
-    """The evaluation stages of the extra training seeds' policies for the #fc values `fcs`."""
-    return [
-        seed_eval_stage_name(policy_type, fc, train_seed)
-        for fc in fcs
-        for train_seed in cfg.train.extra_seeds
-        for policy_type in POLICY_TYPES
-    ]
-
-
 def adds_results(cfg: PipelineConfig, timings: list[StageResult]) -> bool:
-    """Whether the stage that ended last completes results: an #fc's detection, or an evaluation of an
-    extra training seed once its #fc's Table I rows exist."""
-    last = timings[-1].name
-    return last.startswith("detect_fc") or last in seed_eval_stages(cfg, finished_fcs(cfg, timings))
+    """Whether the stage that ended last completes results: the detection that ends a chain."""
+    return timings[-1].name.startswith("detect_fc")
 
 
 def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageResult]) -> Path:
@@ -322,10 +365,14 @@ def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageR
             "threshold": threshold_record(stages, fc),
         }
     ended = {t.name for t in timings}
-    seed_rows, seed_summary = (
-        training_seed_rows(cfg, stages, fcs, ended) if cfg.train.extra_seeds else ([], [])
+    seed_rows, seed_summary, seed_recovery_rows, seed_pooled = (
+        training_seed_rows(cfg, stages, fcs, ended) if cfg.train.extra_seeds else ([], [], [], [])
     )
-    seeds_done = all(name in ended for name in seed_eval_stages(cfg, cfg.train.num_fc_layers))
+    seeds_done = all(
+        chain_ended(cfg, fc, train_seed, ended)
+        for fc in cfg.train.num_fc_layers
+        for train_seed in cfg.train.seeds
+    )
     perception = perception_rows(cfg, stages, ended)
     payload = {
         "task": cfg.task,
@@ -334,7 +381,18 @@ def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageR
         "rows": rows,
         "per_fc": per_fc,
         "perception": perception,
-        **({"training_seeds": {"rows": seed_rows, "summary": seed_summary}} if cfg.train.extra_seeds else {}),
+        **(
+            {
+                "training_seeds": {
+                    "rows": seed_rows,
+                    "summary": seed_summary,
+                    "recovery_rows": seed_recovery_rows,
+                    "pooled_rescue": seed_pooled,
+                }
+            }
+            if cfg.train.extra_seeds
+            else {}
+        ),
         "stage_wall_s": {t.name: round(t.wall_s, 1) for t in timings},
         "total_wall_s": round(sum(t.wall_s for t in timings), 1),
     }
@@ -358,8 +416,9 @@ def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageR
     if seed_rows:
         waiting = sorted({s for s in cfg.train.extra_seeds if s not in {r["train_seed"] for r in seed_rows}})
         lines.append(
-            "\n## Training seeds: VMC and BVMC trained from each seed, no recovery, the same test scenes\n\n"
-            + training_seed_table(seed_rows, seed_summary)
+            "\n## Training seeds: every row's chain trained from each seed, the same test scenes\n\n"
+            + training_seed_table(seed_rows + seed_recovery_rows, seed_summary)
+            + pooled_rescue_table(seed_pooled)
             + (f"\n(training seeds {', '.join(map(str, waiting))} not evaluated yet)\n" if waiting else "")
         )
     if perception:

@@ -1,10 +1,10 @@
 """The study's stages: each one a command of this project, its own output folder and the file that marks it
 done. `build_stages` turns a `PipelineConfig` into the ordered list the runner executes.
 
-collect, then for each #fc: train vmc and bvmc, each checked right after its training (did it learn where
-the object is?) -> foresight -> threshold -> evals of the Table I rows on the same test scenes -> Fig. 3
-episodes -> detection metrics -> for each extra training seed, vmc and bvmc trained again, checked and
-evaluated on the same test scenes. (The results table is written by the runner.)
+collect, then for each #fc a chain per training seed (the main one, then each extra one): train vmc and
+bvmc, each checked right after its training (did it learn where the object is?) -> foresight -> threshold
+-> evals of the Table I rows on the same test scenes -> Fig. 3 episodes -> detection metrics. (The
+results table is written by the runner.)
 """
 
 from __future__ import annotations
@@ -128,145 +128,148 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
     # The collector resumes its own staged demos: a killed collection reruns its command.
     stages = [Stage("collect", collect, data, data / "meta" / "info.json", resume_argv=collect)]
     t = cfg.train
-    seed = f"--seed={cfg.seed}"
     # Evaluation-like stages: sub-envs in parallel processes or not; no LeRobot eval videos (never read).
     async_flag = f"--eval.use_async_envs={str(cfg.async_envs).lower()}"
     eval_env_flags = [*env_flags, async_flag, "--max_episodes_rendered=0"]
-    # One #fc after the other, so that a long study has the first #fc's rows while the next one trains.
+    chain = ChainFlags(data, c.dataset.repo_id or repo_id, env_flags, eval_env_flags, async_flag)
+    # One #fc after the other, so that a long study has the first #fc's rows while the next one trains; in
+    # an #fc, the main training seed's chain first, then each extra seed's.
     for fc in t.num_fc_layers:
-        for training in train_stages(cfg, fc, data, c.dataset.repo_id or repo_id):
-            stages += [training, perception_stage(cfg, training, env_flags, gate=True)]
-        bvmc = root / "train" / f"bvmc_fc{fc}" / CHECKPOINT
-        foresight = root / "foresight" / f"fc{fc}"
-        threshold = root / "threshold" / f"fc{fc}"
-        f = cfg.foresight
-        distillation = asdict(f.foresight)
-        # At 0 (the paper's plain samples) the flag is left out, so older studies keep their fingerprints.
-        if distillation["action_noise"] == 0:
-            del distillation["action_noise"]
-        stages.append(
-            Stage(
-                f"foresight_fc{fc}",
-                [
-                    "lerobot-ivmc-foresight",
-                    f"--policy.path={bvmc}",
-                    *env_flags,
-                    *flags("foresight.", distillation),
-                    f"--eval.batch_size={f.batch_size}",
-                    f"--eval.n_episodes={f.batch_size}",
-                    async_flag,
-                    seed,
-                    f"--output_dir={foresight}",
-                ],
-                output=foresight,
-                done_file=foresight / "pretrained_model" / "model.safetensors",
-                depends=[f"train_bvmc_fc{fc}"],
-            )
-        )
-        th = cfg.threshold
-        stages.append(
-            Stage(
-                f"threshold_fc{fc}",
-                [
-                    "lerobot-ivmc-threshold",
-                    f"--policy.path={foresight / 'pretrained_model'}",
-                    *eval_env_flags,
-                    "--env.split=val",
-                    f"--eval.n_episodes={th.n_episodes}",
-                    f"--eval.batch_size={th.batch_size}",
-                    f"--method={th.method}",
-                    f"--alpha={th.alpha}",
-                    seed,
-                    f"--output_dir={threshold}",
-                ],
-                output=threshold,
-                done_file=threshold / "pretrained_model" / "recovery_threshold.json",
-                depends=[f"foresight_fc{fc}"],
-            )
-        )
-        rows = [("vmc", root / "train" / f"vmc_fc{fc}" / CHECKPOINT, None, f"train_vmc_fc{fc}")]
-        rows += [
-            ("bvmc", threshold / "pretrained_model", mode, f"threshold_fc{fc}") for mode in cfg.recovery_modes
-        ]
-        for policy_type, checkpoint, mode, source in rows:
-            name = eval_stage_name(policy_type, fc, mode)
-            out = root / "eval" / name.removeprefix("eval_")
-            stages.append(
-                eval_stage(
-                    name,
-                    checkpoint,
-                    out,
-                    eval_env_flags,
-                    cfg.eval.n_episodes,
-                    cfg.eval.batch_size,
-                    seed,
-                    mode,
-                    source,
-                )
-            )
-        fig3 = fig3_stage_name(cfg, fc)
-        if fig3 != eval_stage_name("bvmc", fc, "none"):
-            out = root / "fig3" / f"fc{fc}"
-            stages.append(
-                eval_stage(
-                    fig3,
-                    threshold / "pretrained_model",
-                    out,
-                    eval_env_flags,
-                    cfg.fig3.n_episodes,
-                    cfg.fig3.batch_size,
-                    seed,
-                    "none",
-                    f"threshold_fc{fc}",
-                )
-            )
-        fig3_out = stage_output(stages, fig3)
-        detection = root / "detection" / f"fc{fc}"
-        stages.append(
-            Stage(
-                f"detect_fc{fc}",
-                [
-                    "lerobot-ivmc-detect",
-                    f"--eval_dir={fig3_out}",
-                    f"--threshold_path={threshold / 'pretrained_model'}",
-                    f"--alpha={cfg.threshold.alpha}",
-                    f"--output_dir={detection}",
-                ],
-                output=detection,
-                done_file=detection / "detection.json",
-                depends=[fig3, f"threshold_fc{fc}"],
-            )
-        )
+        stages += chain_stages(cfg, fc, None, chain)
         for train_seed in t.extra_seeds:
-            trainings = train_stages(cfg, fc, data, c.dataset.repo_id or repo_id, train_seed)
-            for training in trainings:
-                stages += [training, perception_stage(cfg, training, env_flags, gate=False)]
-            for policy_type, training in zip(POLICY_TYPES, trainings, strict=True):
-                name = seed_eval_stage_name(policy_type, fc, train_seed)
-                stages.append(
-                    eval_stage(
-                        name,
-                        training.output / CHECKPOINT,
-                        root / "eval" / name.removeprefix("eval_"),
-                        eval_env_flags,
-                        cfg.eval.n_episodes,
-                        cfg.eval.batch_size,
-                        seed,
-                        None,
-                        training.name,
-                    )
-                )
+            stages += chain_stages(cfg, fc, train_seed, chain)
+    return stages
+
+
+@dataclass
+class ChainFlags:
+    """What every chain of a study shares: the demos and the env flags of its stages."""
+
+    data: Path
+    repo_id: str
+    env_flags: list[str]
+    eval_env_flags: list[str]
+    async_flag: str
+
+
+def chain_stages(cfg: PipelineConfig, fc: int, train_seed: int | None, chain: ChainFlags) -> list[Stage]:
+    """The whole chain of one training seed (None: the main one) and #fc: vmc and bvmc trained and checked,
+    foresight, threshold, the Table I rows on the test scenes, the Fig. 3 episodes and detection. Stages of
+    an extra seed carry its suffix (`foresight_fc1_seed2000`); those of the main seed have none."""
+    root = cfg.root.resolve()
+    suffix = seed_suffix(train_seed)
+    folder = f"fc{fc}{suffix}"
+    seed = f"--seed={cfg.seed}"
+    stages = []
+    for training in train_stages(cfg, fc, chain.data, chain.repo_id, train_seed):
+        stages += [training, perception_stage(cfg, training, chain.env_flags, gate=train_seed is None)]
+    bvmc = root / "train" / f"bvmc_{folder}" / CHECKPOINT
+    foresight = root / "foresight" / folder
+    threshold = root / "threshold" / folder
+    f = cfg.foresight
+    distillation = asdict(f.foresight)
+    # At 0 (the paper's plain samples) the flag is left out, so older studies keep their fingerprints.
+    if distillation["action_noise"] == 0:
+        del distillation["action_noise"]
+    stages.append(
+        Stage(
+            f"foresight_{folder}",
+            [
+                "lerobot-ivmc-foresight",
+                f"--policy.path={bvmc}",
+                *chain.env_flags,
+                *flags("foresight.", distillation),
+                f"--eval.batch_size={f.batch_size}",
+                f"--eval.n_episodes={f.batch_size}",
+                chain.async_flag,
+                seed,
+                f"--output_dir={foresight}",
+            ],
+            output=foresight,
+            done_file=foresight / "pretrained_model" / "model.safetensors",
+            depends=[f"train_bvmc_{folder}"],
+        )
+    )
+    th = cfg.threshold
+    stages.append(
+        Stage(
+            f"threshold_{folder}",
+            [
+                "lerobot-ivmc-threshold",
+                f"--policy.path={foresight / 'pretrained_model'}",
+                *chain.eval_env_flags,
+                "--env.split=val",
+                f"--eval.n_episodes={th.n_episodes}",
+                f"--eval.batch_size={th.batch_size}",
+                f"--method={th.method}",
+                f"--alpha={th.alpha}",
+                seed,
+                f"--output_dir={threshold}",
+            ],
+            output=threshold,
+            done_file=threshold / "pretrained_model" / "recovery_threshold.json",
+            depends=[f"foresight_{folder}"],
+        )
+    )
+    rows = [("vmc", root / "train" / f"vmc_{folder}" / CHECKPOINT, None, f"train_vmc_{folder}")]
+    rows += [
+        ("bvmc", threshold / "pretrained_model", mode, f"threshold_{folder}") for mode in cfg.recovery_modes
+    ]
+    for policy_type, checkpoint, mode, source in rows:
+        name = eval_stage_name(policy_type, fc, mode, train_seed)
+        out = root / "eval" / name.removeprefix("eval_")
+        stages.append(
+            eval_stage(
+                name,
+                checkpoint,
+                out,
+                chain.eval_env_flags,
+                cfg.eval.n_episodes,
+                cfg.eval.batch_size,
+                seed,
+                mode,
+                source,
+            )
+        )
+    fig3 = fig3_stage_name(cfg, fc, train_seed)
+    if fig3 != eval_stage_name("bvmc", fc, "none", train_seed):
+        out = root / "fig3" / folder
+        stages.append(
+            eval_stage(
+                fig3,
+                threshold / "pretrained_model",
+                out,
+                chain.eval_env_flags,
+                cfg.fig3.n_episodes,
+                cfg.fig3.batch_size,
+                seed,
+                "none",
+                f"threshold_{folder}",
+            )
+        )
+    fig3_out = stage_output(stages, fig3)
+    detection = root / "detection" / folder
+    stages.append(
+        Stage(
+            f"detect_{folder}",
+            [
+                "lerobot-ivmc-detect",
+                f"--eval_dir={fig3_out}",
+                f"--threshold_path={threshold / 'pretrained_model'}",
+                f"--alpha={cfg.threshold.alpha}",
+                f"--output_dir={detection}",
+            ],
+            output=detection,
+            done_file=detection / "detection.json",
+            depends=[fig3, f"threshold_{folder}"],
+        )
+    )
     return stages
 
 
 def seed_suffix(train_seed: int | None) -> str:
     """The name suffix of an extra training seed's stages and folders (none for the main seed)."""
     return "" if train_seed is None else f"_seed{train_seed}"
-
-
-def seed_eval_stage_name(policy_type: str, fc: int, train_seed: int) -> str:
-    """`eval_vmc_fc1_seed2000`: a policy of an extra training seed on the test scenes, no recovery."""
-    return f"eval_{policy_type}_fc{fc}{seed_suffix(train_seed)}"
 
 
 def train_stages(
@@ -362,19 +365,21 @@ def perception_stage(cfg: PipelineConfig, training: Stage, env_flags: list[str],
     )
 
 
-def eval_stage_name(policy_type: str, fc: int, mode: str | None) -> str:
-    """`eval_vmc_fc1`, `eval_bvmc_fc1_min_unc`, ..."""
-    return f"eval_{policy_type}_fc{fc}" + (f"_{mode}" if mode else "")
+def eval_stage_name(policy_type: str, fc: int, mode: str | None, train_seed: int | None = None) -> str:
+    """`eval_vmc_fc1`, `eval_bvmc_fc1_min_unc`, ... (`eval_bvmc_fc1_min_unc_seed2000` of an extra seed)."""
+    return f"eval_{policy_type}_fc{fc}" + (f"_{mode}" if mode else "") + seed_suffix(train_seed)
 
 
-def fig3_stage_name(cfg: PipelineConfig, fc: int) -> str:
+def fig3_stage_name(cfg: PipelineConfig, fc: int, train_seed: int | None = None) -> str:
     """The stage whose episodes give Fig. 3 and the detection metrics: BVMC without recovery on test
     scenes; the Table I row itself when it has as many episodes, else a stage of its own."""
     same = "none" in cfg.recovery_modes and (cfg.fig3.n_episodes, cfg.fig3.batch_size) == (
         cfg.eval.n_episodes,
         cfg.eval.batch_size,
     )
-    return eval_stage_name("bvmc", fc, "none") if same else f"fig3_fc{fc}"
+    if same:
+        return eval_stage_name("bvmc", fc, "none", train_seed)
+    return f"fig3_fc{fc}{seed_suffix(train_seed)}"
 
 
 def find_stage(stages: list[Stage], name: str) -> Stage:

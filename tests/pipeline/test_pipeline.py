@@ -132,13 +132,20 @@ def test_extra_training_seeds_add_stages_and_leave_the_study_s_own_untouched(tmp
     seeded = build_stages(parse_config([*base, "--train.extra_seeds=[2000]"]))
     assert [(s.name, s.argv) for s in seeded[: len(plain)]] == [(s.name, s.argv) for s in plain]
     extra = {s.name: s for s in seeded[len(plain) :]}
+    # Every training seed gets the whole chain: its own foresight head, threshold and recovery rows.
     assert list(extra) == [
         "train_vmc_fc1_seed2000",
         "check_vmc_fc1_seed2000",
         "train_bvmc_fc1_seed2000",
         "check_bvmc_fc1_seed2000",
+        "foresight_fc1_seed2000",
+        "threshold_fc1_seed2000",
         "eval_vmc_fc1_seed2000",
-        "eval_bvmc_fc1_seed2000",
+        "eval_bvmc_fc1_none_seed2000",
+        "eval_bvmc_fc1_rand_seed2000",
+        "eval_bvmc_fc1_init_seed2000",
+        "eval_bvmc_fc1_min_unc_seed2000",
+        "detect_fc1_seed2000",
     ]
     # An extra seed's policies are checked and reported, never stop the study.
     assert {"--max_object_error_cm=5.0", "--fail_above_limit=false"} <= set(
@@ -147,17 +154,23 @@ def test_extra_training_seeds_add_stages_and_leave_the_study_s_own_untouched(tmp
     train = extra["train_bvmc_fc1_seed2000"]
     assert "--seed=2000" in train.argv and "--seed=1000" not in train.argv
     assert train.output == tmp_path.resolve() / "train" / "bvmc_fc1_seed2000"
-    evaluation = extra["eval_bvmc_fc1_seed2000"]
+    assert (
+        f"--policy.path={train.output}/checkpoints/last/pretrained_model"
+        in extra["foresight_fc1_seed2000"].argv
+    )
+    evaluation = extra["eval_bvmc_fc1_min_unc_seed2000"]
 
-    # Evaluated like the Table I rows (same test scenes), from its own checkpoint, without recovery.
+    # Evaluated like the Table I rows (same test scenes), with its own seed's threshold checkpoint.
     def scenes(argv: list[str]) -> list[str]:
         return [a for a in argv if a.startswith(("--seed=", "--eval.", "--env."))]
 
-    assert scenes(evaluation.argv) == scenes({s.name: s for s in plain}["eval_vmc_fc1"].argv)
-    assert "--env.split=test" in scenes(evaluation.argv)
-    assert not any(a.startswith("--recovery") for a in evaluation.argv)
-    assert evaluation.depends == ["train_bvmc_fc1_seed2000"]
-    assert f"--policy.path={train.output}/checkpoints/last/pretrained_model" in evaluation.argv
+    main_row = {s.name: s for s in plain}["eval_bvmc_fc1_min_unc"]
+    assert scenes(evaluation.argv) == scenes(main_row.argv)
+    assert "--env.split=test" in scenes(evaluation.argv) and "--recovery.mode=min_unc" in evaluation.argv
+    assert evaluation.depends == ["threshold_fc1_seed2000"]
+    threshold = tmp_path.resolve() / "threshold" / "fc1_seed2000" / "pretrained_model"
+    assert f"--policy.path={threshold}" in evaluation.argv
+    assert extra["detect_fc1_seed2000"].depends == ["eval_bvmc_fc1_none_seed2000", "threshold_fc1_seed2000"]
 
 
 def test_bad_input_is_refused_with_what_to_do(capsys: pytest.CaptureFixture) -> None:
@@ -296,7 +309,7 @@ def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Pa
     seeded = pipeline("--task=push", "--preset=smoke", f"--output_dir={out}", "--train.extra_seeds=[7]")
     assert seeded.returncode == 0, seeded.stdout[-3000:] + seeded.stderr[-3000:]
     assert seeded.stdout.count("done earlier") == len(results["stage_wall_s"]), seeded.stdout
-    assert seeded.stdout.count(": running") == 6, seeded.stdout
+    assert seeded.stdout.count(": running") == 12, seeded.stdout  # its whole chain
     with_seed = json.loads((out / "results" / "push.json").read_text())
     assert with_seed["complete"] is True and with_seed["rows"] == results["rows"]
     spread = with_seed["training_seeds"]
@@ -309,16 +322,32 @@ def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Pa
     # The main seed's rows are the Table I rows themselves (VMC, and BVMC without recovery).
     assert spread["rows"][0]["subtasks"] == results["rows"][0]["subtasks"]
     assert spread["rows"][2]["subtasks"] == results["rows"][1]["subtasks"]
+    def method(row: dict) -> str:
+        return row.get("method", "vmc" if row["model"] == "VMC" else "none")
+
+    assert [entry["method"] for entry in spread["summary"]] == ["vmc", "none", "rand", "init", "min_unc"]
     for entry in spread["summary"]:
         rates = [
             r["subtasks"]["push"]["rate"]
-            for r in spread["rows"]
-            if (r["model"], r["num_fc_layers"]) == (entry["model"], entry["num_fc_layers"])
+            for r in spread["rows"] + spread["recovery_rows"]
+            if (method(r), r["num_fc_layers"]) == (entry["method"], entry["num_fc_layers"])
         ]
         assert entry["train_seeds"] == [1000, 7] and entry["subtasks"]["push"]["rates"] == rates
         assert entry["subtasks"]["push"]["mean"] == pytest.approx(sum(rates) / 2)
         assert entry["subtasks"]["push"]["std"] == pytest.approx(abs(rates[0] - rates[1]) / 2**0.5)
     assert "mean +- sd over 2 seeds" in (out / "results" / "table.md").read_text()
+    # Each recovery row per seed, with its rescue against that seed's own BVMC, and pooled over the seeds.
+    assert [(r["method"], r["train_seed"]) for r in spread["recovery_rows"]] == [
+        (mode, seed) for mode in ("rand", "init", "min_unc") for seed in (1000, 7)
+    ]
+    main_rescue = {r["method"]: r["rescue"] for r in with_seed["rows"] if "rescue" in r}
+    for pooled in spread["pooled_rescue"]:
+        per_seed = [r["rescue"] for r in spread["recovery_rows"] if r["method"] == pooled["method"]]
+        assert per_seed[0] == main_rescue[pooled["method"]]
+        assert pooled["train_seeds"] == [1000, 7]
+        assert pooled["failures"] == sum(r["failures"] for r in per_seed)
+        assert pooled["rescued"] - pooled["lost"] == sum(r["rescued"] - r["lost"] for r in per_seed)
+        assert 0 <= pooled["exact_p"] <= 1
     assert [(r["model"], r["train_seed"]) for r in with_seed["perception"]] == [
         ("VMC", 1000),
         ("VMC", 7),
