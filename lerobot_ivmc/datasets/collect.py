@@ -69,7 +69,7 @@ from lerobot_ivmc.envs import (
     check_task,
     gym_id,
 )
-from lerobot_ivmc.envs.fetch_env import check_image_size
+from lerobot_ivmc.envs.camera import check_image_size
 from lerobot_ivmc.envs.render_styles import (
     DEFAULT_RENDER_STYLE,
     LEGACY_RENDER_STYLE,

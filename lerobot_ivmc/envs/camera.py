@@ -13,9 +13,7 @@ import numpy as np
 CAMERA_NAME = "front"
 OBS_TYPES = ("pixels_agent_pos", "state")
 # Largest camera image and render() frame side, in pixels, which every OpenGL implementation's renderbuffers
-# allow. Each frame size gets its own renderer whose offscreen framebuffer is exactly that size: MuJoCo
-# would otherwise render into the model's `vis.global_.offwidth` x `offheight` (640 x 480 in the Fetch
-# XML), and clearing and resolving that buffer cost most of a 64-px frame (the pixels are the same).
+# allow (each frame size is drawn into a framebuffer of its own size: `IvmcFetchEnv._make_renderer`).
 MAX_IMAGE_SIZE = 2048
 
 

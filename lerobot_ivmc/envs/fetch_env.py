@@ -27,7 +27,7 @@ from gymnasium.utils import EzPickle  # noqa: E402
 from gymnasium_robotics.utils import mujoco_utils  # noqa: E402
 
 from lerobot_ivmc.envs import scene_model  # noqa: E402
-from lerobot_ivmc.envs.camera import MAX_IMAGE_SIZE, OBS_TYPES, check_image_size  # noqa: E402, F401
+from lerobot_ivmc.envs.camera import OBS_TYPES, check_image_size  # noqa: E402
 from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE, RENDER_STYLES, check_render_style  # noqa: E402
 from lerobot_ivmc.envs.scenes import Grid, Scene, cell_jitter, scenes_of_split  # noqa: E402
 
@@ -45,8 +45,6 @@ ARM_JOINTS = (
 FINGER_JOINTS = ("robot0:l_gripper_finger_joint", "robot0:r_gripper_finger_joint")
 FINGER_GEOMS = ("robot0:l_gripper_finger_link", "robot0:r_gripper_finger_link")
 GRIP_SITE = "robot0:grip"
-
-
 GRIPPER_CLOSE, GRIPPER_NOOP, GRIPPER_OPEN = -1, 0, 1
 POSITION_SCALE = 0.05  # metres per unit of action, as in gymnasium-robotics Fetch
 DELTA_EE_DIM = 3  # action = [dx, dy, dz, gripper]
@@ -351,19 +349,18 @@ class IvmcFetchEnv(gym.Env, EzPickle):
             self._renderers[size] = self._make_renderer(size)
         renderer = self._renderers[size]
         renderer.update_scene(self.data, camera=scene_model.CAMERA_NAME)
-        style = RENDER_STYLES[self.render_style]
-        renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = style.shadows
-        renderer.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = style.reflections
         return renderer.render().copy()
 
     def _make_renderer(self, size: int) -> mujoco.Renderer:
         """A renderer of `size` x `size` frames whose offscreen framebuffer is that size, in this style."""
         # MuJoCo's rendering context takes its framebuffer's size and multisampling from the model's visual
-        # settings when it is created; they do not affect the physics.
+        # settings when it is created; they do not affect the physics. A frame-sized buffer draws the same
+        # pixels as the Fetch XML's 640 x 480 one, without clearing and resolving the rest of it.
+        style = RENDER_STYLES[self.render_style]
         self.model.vis.global_.offwidth = self.model.vis.global_.offheight = size
-        self.model.vis.quality.offsamples = RENDER_STYLES[self.render_style].multisamples
+        self.model.vis.quality.offsamples = style.multisamples
         try:
-            return mujoco.Renderer(self.model, size, size)
+            renderer = mujoco.Renderer(self.model, size, size)
         except mujoco.FatalError as error:
             raise RuntimeError(
                 "MuJoCo could not create an offscreen renderer "
@@ -371,6 +368,10 @@ class IvmcFetchEnv(gym.Env, EzPickle):
                 "Set MUJOCO_GL=egl (or osmesa) in the environment before anything imports mujoco; "
                 "lerobot_ivmc sets it only if mujoco was not imported first."
             ) from error
+        # The scene's render flags persist across `update_scene` calls: set once.
+        renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = style.shadows
+        renderer.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = style.reflections
+        return renderer
 
 
 def _parse_action(action: np.ndarray) -> tuple[np.ndarray, int]:

@@ -33,6 +33,13 @@ def load_run(folder: Path) -> dict:
     return info
 
 
+def exact_mcnemar_p(only_first: int, only_second: int) -> float:
+    """The exact McNemar test of paired binary outcomes: a two-sided binomial test on the discordant pairs
+    (1.0 without any)."""
+    discordant = only_first + only_second
+    return float(stats.binomtest(only_second, discordant, 0.5).pvalue) if discordant else 1.0
+
+
 def paired_outcomes(a: dict, b: dict, milestone: str) -> dict:
     """Counts of (a, b) outcomes on the scenes both runs evaluated and the exact McNemar p-value.
 
@@ -59,8 +66,7 @@ def paired_outcomes(a: dict, b: dict, milestone: str) -> dict:
     flags = [(bool(x["subtasks"][milestone]), bool(y["subtasks"][milestone])) for x, y in pairs]
     only_a = sum(x and not y for x, y in flags)
     only_b = sum(y and not x for x, y in flags)
-    discordant = only_a + only_b
-    p = stats.binomtest(only_b, discordant, 0.5).pvalue if discordant else 1.0
+    p = exact_mcnemar_p(only_a, only_b)
     return {
         "milestone": milestone,
         "episodes": len(flags),

@@ -9,7 +9,6 @@ fields of `lerobot-ivmc-train`; `foresight` is `lerobot-ivmc-foresight`'s `--for
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -17,6 +16,7 @@ from lerobot_ivmc.datasets.record_config import RecordDemosConfig
 from lerobot_ivmc.envs import TASKS, check_demo_episode_steps
 from lerobot_ivmc.policies.vmc.configuration_vmc import VMCConfig
 from lerobot_ivmc.recovery.foresight_training import ForesightConfig
+from lerobot_ivmc.recovery.threshold import conformal_min_successes
 from lerobot_ivmc.scripts.pick_threshold import THRESHOLD_METHODS
 
 # Shipped inside the package, so `--preset` works wherever the plugin is installed.
@@ -267,7 +267,7 @@ class PipelineConfig:
                     f"{episodes.n_episodes}: lower the batch size or run more episodes."
                 )
         if self.threshold.method == "conformal":
-            needed = math.ceil((1.0 - self.threshold.alpha) / self.threshold.alpha - 1e-9)
+            needed = conformal_min_successes(self.threshold.alpha)
             if self.threshold.n_episodes < needed:
                 raise ValueError(
                     f"A conformal threshold at --threshold.alpha={self.threshold.alpha} needs at least "

@@ -11,9 +11,7 @@ import statistics
 from dataclasses import asdict
 from pathlib import Path
 
-from scipy import stats
-
-from lerobot_ivmc.evaluation.compare import EVAL_INFO_FILE, paired_outcomes, rescue_record
+from lerobot_ivmc.evaluation.compare import EVAL_INFO_FILE, exact_mcnemar_p, paired_outcomes, rescue_record
 from lerobot_ivmc.evaluation.fig3 import most_negative_rho
 from lerobot_ivmc.evaluation.perception_check import DRIVERS as PERCEPTION_DRIVERS
 from lerobot_ivmc.pipeline.config import POLICY_TYPES, PipelineConfig
@@ -156,15 +154,13 @@ def pooled_rescue(fc: int, method: str, per_seed: list[dict]) -> dict | None:
     if not per_seed:
         return None
     total = {k: sum(r["rescue"][k] for r in per_seed) for k in ("failures", "flagged", "rescued", "lost")}
-    discordant = total["rescued"] + total["lost"]
-    p = stats.binomtest(total["rescued"], discordant, 0.5).pvalue if discordant else 1.0
     return {
         "num_fc_layers": fc,
         "method": method,
         "train_seeds": [r["train_seed"] for r in per_seed],
         **total,
         "rescue_rate": (total["rescued"] - total["lost"]) / total["failures"] if total["failures"] else None,
-        "exact_p": float(p),
+        "exact_p": exact_mcnemar_p(total["lost"], total["rescued"]),
     }
 
 

@@ -80,6 +80,12 @@ def argmax_threshold(scores: Sequence[float], successes: Sequence[bool]) -> tupl
     return float(candidates[best]), gains
 
 
+def conformal_min_successes(alpha: float) -> int:
+    """The fewest successful calibration episodes that give a conformal threshold at `alpha`: the least n
+    with ceil((n + 1)(1 - alpha)) <= n."""
+    return math.ceil((1.0 - alpha) / alpha - 1e-9)
+
+
 def conformal_threshold(success_scores: Sequence[float], alpha: float) -> float:
     """Split conformal threshold from the scores of n successful calibration episodes.
 
@@ -100,7 +106,7 @@ def conformal_threshold(success_scores: Sequence[float], alpha: float) -> float:
     n = len(scores)
     rank = math.ceil((n + 1) * (1.0 - alpha) - 1e-9)  # the guard keeps 10 * 0.9 at 9
     if rank > n:
-        needed = math.ceil((1.0 - alpha) / alpha - 1e-9)  # the least n with ceil((n + 1)(1 - alpha)) <= n
+        needed = conformal_min_successes(alpha)
         raise ValueError(
             f"A conformal threshold at alpha={alpha} needs at least {needed} successful calibration "
             f"episodes; got {n}. Evaluate more validation episodes (--eval.n_episodes) or raise alpha."
