@@ -25,7 +25,7 @@ import torch
 from lerobot.configs import parser
 from lerobot.configs.eval import EvalPipelineConfig
 from lerobot.scripts.lerobot_eval import eval_policy
-from lerobot.utils.constants import OBS_ENV_STATE
+from lerobot.utils.constants import OBS_ENV_STATE, OBS_STATE
 from lerobot.utils.random_utils import set_seed
 
 from lerobot_ivmc.datasets.root_lock import EVAL_LOCK_FILE, RootLock
@@ -95,14 +95,19 @@ def collect_episode_milestones(env: gym.vector.VectorEnv, n_episodes: int) -> li
 
 def env_state_stats(preprocessor) -> tuple[torch.Tensor, torch.Tensor]:
     """(mean, std) of `observation.environment_state` from the policy's normaliser step."""
+    return feature_stats(preprocessor, OBS_ENV_STATE)
+
+
+def feature_stats(preprocessor, key: str) -> tuple[torch.Tensor, torch.Tensor]:
+    """(mean, std) of the observation feature `key` from the policy's normaliser step."""
     for step in preprocessor.steps:
         stats = getattr(step, "_tensor_stats", None) or {}
-        if OBS_ENV_STATE in stats:
-            mean = stats[OBS_ENV_STATE]["mean"].float().cpu()
-            return mean, stats[OBS_ENV_STATE]["std"].float().cpu() + step.eps
+        if key in stats:
+            mean = stats[key]["mean"].float().cpu()
+            return mean, stats[key]["std"].float().cpu() + step.eps
     raise ValueError(
-        f"The policy's preprocessor has no statistics for {OBS_ENV_STATE!r}: the grip and object positions "
-        "are read in its units. Use a checkpoint saved by lerobot-train (it stores the processors)."
+        f"The policy's preprocessor has no statistics for {key!r}: the robot's positions are read in its "
+        "units. Use a checkpoint saved by lerobot-train (it stores the processors)."
     )
 
 
@@ -172,6 +177,7 @@ def run_evaluation(cfg: IvmcEvalConfig, output_dir: Path, ignore_stored_threshol
             env_state_stats(loaded.preprocessor),
             seed=cfg.seed,
             observers=(video_store,) if video_store is not None else (),
+            state_stats=feature_stats(loaded.preprocessor, OBS_STATE),
         )
     # Seed again once everything is built: the Monte Carlo masks then do not depend on how many random
     # draws building the policy took (e.g. a checkpoint with or without a foresight head).

@@ -21,7 +21,14 @@ from lerobot.utils.io_utils import write_video
 from lerobot_ivmc.recovery.controller import BatchTrace
 from lerobot_ivmc.recovery.manoeuvres import NORMAL, PHASE_NAMES
 
-PHASE_COLOURS = {1: "tab:orange", 2: "tab:green", 3: "tab:purple", 4: "tab:brown"}
+PHASE_COLOURS = {
+    1: "tab:orange",
+    2: "tab:green",
+    3: "tab:purple",
+    4: "tab:brown",
+    5: "tab:cyan",
+    6: "tab:olive",
+}
 # The camera images are enlarged by a whole factor (nearest pixel) to at least this side in the videos.
 VIDEO_MIN_SIDE = 256
 

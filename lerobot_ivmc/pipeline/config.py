@@ -15,13 +15,15 @@ from pathlib import Path
 from lerobot_ivmc.datasets.record_config import RecordDemosConfig
 from lerobot_ivmc.envs import TASKS, check_demo_episode_steps
 from lerobot_ivmc.policies.vmc.configuration_vmc import VMCConfig
+from lerobot_ivmc.recovery.config import RECOVERY_MODES
 from lerobot_ivmc.recovery.foresight_training import ForesightConfig
 from lerobot_ivmc.recovery.threshold import conformal_min_successes
 from lerobot_ivmc.scripts.pick_threshold import THRESHOLD_METHODS
 
 # Shipped inside the package, so `--preset` works wherever the plugin is installed.
 PRESETS_DIR = Path(__file__).resolve().parent / "presets"
-RECOVERY_MODES = ("none", "rand", "init", "min_unc")
+# The rows of Table I: BVMC alone and with the paper's three recovery modes (`anchor` is added on request).
+PAPER_MODES = ("none", "rand", "init", "min_unc")
 POLICY_TYPES = ("vmc", "bvmc")
 
 
@@ -148,7 +150,8 @@ class PipelineConfig:
         foresight: distillation of the uncertainty foresight head.
         threshold: threshold picking on validation scenes.
         eval: the Table I evaluations on test scenes (VMC, and BVMC with each of `recovery_modes`).
-        recovery_modes: the BVMC rows: "none" (plain BVMC), "rand", "init", "min_unc".
+        recovery_modes: the BVMC rows: "none" (plain BVMC), "rand", "init", "min_unc" (the paper's) and,
+            beyond the paper, "anchor" (a policy trained with the goal head).
         fig3: the Fig. 3 evaluation (BVMC without recovery, many test episodes) and detection metrics.
         async_envs: foresight, threshold and evaluation stages step each sub-env in its own process
             (`--eval.use_async_envs`; the same episodes as in one process). Off by default: on 2 cores, 10
@@ -167,7 +170,7 @@ class PipelineConfig:
     foresight: ForesightStageConfig = field(default_factory=ForesightStageConfig)
     threshold: ThresholdStageConfig = field(default_factory=ThresholdStageConfig)
     eval: EpisodesConfig = field(default_factory=EpisodesConfig)
-    recovery_modes: list[str] = field(default_factory=lambda: list(RECOVERY_MODES))
+    recovery_modes: list[str] = field(default_factory=lambda: list(PAPER_MODES))
     fig3: EpisodesConfig = field(default_factory=lambda: EpisodesConfig(n_episodes=800))
     async_envs: bool = False
 
@@ -187,6 +190,11 @@ class PipelineConfig:
         if bad_modes or not self.recovery_modes:
             raise ValueError(
                 f"--recovery_modes must be taken from {RECOVERY_MODES}, got {self.recovery_modes}."
+            )
+        if "anchor" in self.recovery_modes and self.train.policy.goal_head is False:
+            raise ValueError(
+                "--recovery_modes=[...,anchor] reads the policy's goal head: drop "
+                "--train.policy.goal_head=false or the anchor row."
             )
         if self.perception.max_object_error_cm < 0:
             raise ValueError(

@@ -6,9 +6,11 @@ import math
 from dataclasses import dataclass
 
 # none: Bayesian VMC without recovery; min_unc: the paper's back-track and minimum-uncertainty recovery;
-# rand and init: the paper's baselines ("Baselines for Visuomotor Control Recovery").
-RECOVERY_MODES = ("none", "rand", "init", "min_unc")
-MIN_UNC_MEMORY = ("restore", "reset")
+# rand and init: the paper's baselines ("Baselines for Visuomotor Control Recovery"); anchor (beyond the
+# paper): act on the beliefs of the policy's most certain steps (`recovery/anchor.py`).
+RECOVERY_MODES = ("none", "rand", "init", "min_unc", "anchor")
+MIN_UNC_MEMORY = ("restore", "reset", "keep")
+MIN_UNC_CHOICE = ("foresight", "mean", "random")
 
 
 @dataclass
@@ -16,7 +18,10 @@ class RecoveryConfig:
     """How a Bayesian VMC rollout detects trouble and recovers (`--recovery.<field>=` on the eval CLI).
 
     Args:
-        mode: "none", "rand", "init" or "min_unc".
+        mode: "none", "rand", "init", "min_unc" or "anchor" (beyond the paper; a policy trained with
+            `goal_head`): holding the object, carry it to the goal the policy believed over its least
+            uncertain steps; not holding it, grasp it again where the policy believes it and carry it
+            there; then the policy goes on with a fresh memory (`recovery/anchor.py`).
         threshold: C, the window-sum threshold. None: read from the checkpoint's `recovery_threshold.json`
             (written by `lerobot-ivmc-threshold`); a value given here wins.
         window: steps in the sliding window of uncertainties (the paper: 20, "best avoids noisy peaks").
@@ -48,7 +53,19 @@ class RecoveryConfig:
         min_unc_memory: the policy memory min_unc continues with after its back-track. "restore" (the
             paper's Algorithm 1): the memory saved at the point of minimum uncertainty. "reset" (beyond the
             paper): the memory after `reset()`, as init and rand end: a false belief the carried memory
-            formed before that point (e.g. "the task is done") goes with it.
+            formed before that point (e.g. "the task is done") goes with it. "keep" (an ablation): the memory
+            as it evolved through the back-track, so min_unc is a back-track only.
+        min_unc_choice: which action min_unc executes after its back-track. "foresight" (the paper): the
+            candidate of lowest foreseen uncertainty. "mean" and "random" (ablations of the foresight
+            head): the Monte Carlo mean, i.e. the policy acting as it would without recovery, and one
+            candidate drawn uniformly.
+        anchor_steps: most steps of one anchor manoeuvre (a carry across the table takes about 20).
+        anchor_release: anchor lets a carried object go at the believed goal and rises: for tasks that end
+            with the object resting at its goal (pick_place). False for tasks that end holding it
+            (pick_reach): it hands back at the goal, still holding, with the memory as it is.
+        anchor_grasp: anchor grasps an object it does not hold where the policy believes it (tasks whose
+            object is picked up). False for tasks whose object must not be picked up (push): it only
+            rises above the believed object and hands back with a fresh memory.
         max_videos: at most this many videos of episodes with a recovery, the uncertainty trace drawn under
             the frames (frames are rendered for every episode until they are found; 0 disables).
     """
@@ -66,6 +83,10 @@ class RecoveryConfig:
     move_tolerance: float = 0.01
     candidate_noise: float | None = None
     min_unc_memory: str = "restore"
+    min_unc_choice: str = "foresight"
+    anchor_steps: int = 40
+    anchor_release: bool = True
+    anchor_grasp: bool = True
     max_videos: int = 4
 
     def __post_init__(self) -> None:
@@ -81,8 +102,11 @@ class RecoveryConfig:
         for name in ("initial_interval", "recovery_steps", "backtrack_horizon", "max_videos"):
             if getattr(self, name) < 0:
                 raise ValueError(f"--recovery.{name} must be >= 0, got {getattr(self, name)}.")
-        if self.backtrack_horizon < 1 or self.recovery_steps < 1:
-            raise ValueError("--recovery.backtrack_horizon and --recovery.recovery_steps must be >= 1.")
+        if self.backtrack_horizon < 1 or self.recovery_steps < 1 or self.anchor_steps < 1:
+            raise ValueError(
+                "--recovery.backtrack_horizon, --recovery.recovery_steps and --recovery.anchor_steps must be "
+                ">= 1."
+            )
         for name in ("backtrack_tolerance", "rand_step_scale", "init_sphere_radius", "move_tolerance"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"--recovery.{name} must be positive, got {getattr(self, name)}.")
@@ -99,6 +123,22 @@ class RecoveryConfig:
         if self.min_unc_memory not in MIN_UNC_MEMORY:
             raise ValueError(
                 f"--recovery.min_unc_memory must be one of {MIN_UNC_MEMORY}, got {self.min_unc_memory!r}."
+            )
+        if (self.anchor_steps, self.anchor_release, self.anchor_grasp) != (40, True, True) and (
+            self.mode != "anchor"
+        ):
+            raise ValueError(
+                "--recovery.anchor_steps, anchor_release and anchor_grasp set the anchor mode; they have no "
+                f"effect with --recovery.mode={self.mode}: drop them or use --recovery.mode=anchor."
+            )
+        if self.min_unc_choice not in MIN_UNC_CHOICE:
+            raise ValueError(
+                f"--recovery.min_unc_choice must be one of {MIN_UNC_CHOICE}, got {self.min_unc_choice!r}."
+            )
+        if self.min_unc_choice != "foresight" and self.mode != "min_unc":
+            raise ValueError(
+                "--recovery.min_unc_choice sets the action min_unc follows after its back-track; it has no "
+                f"effect with --recovery.mode={self.mode}: drop it or use --recovery.mode=min_unc."
             )
         if self.min_unc_memory != "restore" and self.mode != "min_unc":
             raise ValueError(

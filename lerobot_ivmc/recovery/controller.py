@@ -15,10 +15,12 @@ from typing import Protocol
 
 import numpy as np
 import torch
-from lerobot.utils.constants import OBS_ENV_STATE
+from lerobot.utils.constants import OBS_ENV_STATE, OBS_STATE
 from torch import Tensor
 
+from lerobot_ivmc.envs.fetch_env import ARM_JOINTS, GRIPPER_CLOSE, GRIPPER_NOOP, GRIPPER_OPEN
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy, MCPrediction
+from lerobot_ivmc.recovery.anchor import BeliefAnchor, carry_to_goal, is_holding, reapproach, regrasp
 from lerobot_ivmc.recovery.candidates import widen_candidates
 from lerobot_ivmc.recovery.config import RecoveryConfig
 from lerobot_ivmc.recovery.manoeuvres import (
@@ -93,6 +95,8 @@ class IntrospectiveController(BVMCRolloutWrapper):
             from the normalised observation (the first three entries).
         seed: seeds the random draws of rand and init, and min_unc's candidate noise.
         observers: shown every step's observation batch and every finished batch's trace.
+        state_stats: (mean, std) of `observation.state`, to read the finger joints (its last two entries);
+            required by `anchor`, which decides by them whether the robot holds the object.
     """
 
     name = "bvmc_introspective"
@@ -106,12 +110,23 @@ class IntrospectiveController(BVMCRolloutWrapper):
         env_state_stats: tuple[Tensor, Tensor],
         seed: int = 0,
         observers: tuple[StepObserver, ...] = (),
+        state_stats: tuple[Tensor, Tensor] | None = None,
     ):
         super().__init__(policy)
         if recovery.mode != "none" and threshold is None:
             raise ValueError(f"Recovery mode {recovery.mode!r} needs a threshold.")
         if recovery.mode == "min_unc":
             policy.require_foresight()
+        if recovery.mode == "anchor" and not getattr(policy.config, "goal_head", False):
+            raise ValueError(
+                "--recovery.mode=anchor reads the goal the policy believes: it needs a policy trained with "
+                "--policy.goal_head=true (the lite preset's); use another --recovery.mode for this one."
+            )
+        if recovery.mode == "anchor" and state_stats is None:
+            raise ValueError(
+                "--recovery.mode=anchor needs the statistics of observation.state (state_stats)."
+            )
+        self.state_stats = state_stats
         self.recovery = recovery
         # Without recovery the trigger still keeps the window sums for the traces, but never fires.
         self.threshold = np.inf if recovery.mode == "none" or threshold is None else float(threshold)
@@ -152,6 +167,10 @@ class IntrospectiveController(BVMCRolloutWrapper):
         )
         self.manoeuvres: list[Manoeuvre | None] = [None] * batch_size
         self.fifos = [deque(maxlen=self.recovery.backtrack_horizon) for _ in range(batch_size)]
+        self.anchors = [BeliefAnchor() for _ in range(batch_size)]
+        self.object_beliefs = np.zeros((batch_size, 3))  # the last step's believed object positions
+        # The last gripper command other than no-op each rollout executed (the fingers' open start: open).
+        self.last_gripper = np.full(batch_size, GRIPPER_OPEN, dtype=np.int64)
         self.initial_grip = grip.copy()
         self.step = 0
         self.traces.append(BatchTrace(events=[[] for _ in range(batch_size)]))
@@ -161,6 +180,38 @@ class IntrospectiveController(BVMCRolloutWrapper):
         env_state = batch[OBS_ENV_STATE].float().cpu()
         raw = env_state * self.env_state_std + self.env_state_mean
         return raw[:, :3].numpy().astype(np.float64)
+
+    def finger_joints(self, batch: dict[str, Tensor]) -> np.ndarray:
+        """(B, 2) finger joint positions (metres) from the normalised proprioception."""
+        mean, std = self.state_stats
+        raw = batch[OBS_STATE].float().cpu() * std + mean
+        return raw[:, len(ARM_JOINTS) :].numpy().astype(np.float64)
+
+    def _update_beliefs(self, prediction: MCPrediction, uncertainty: np.ndarray, normal: np.ndarray) -> None:
+        """Read the believed object and goal positions (the net's deterministic heads, metres); add the
+        goals of rollouts in normal operation to their anchors."""
+        outputs = self.policy.net.decode(prediction.embedding, stochastic=False, with_goal=True)
+        mean, std = self.env_state_mean[3:], self.env_state_std[3:]  # the object's part of the env state
+        self.object_beliefs = (outputs[3].float().cpu() * std + mean).numpy().astype(np.float64)
+        goals = (outputs[4].float().cpu() * std + mean).numpy().astype(np.float64)
+        for row in np.flatnonzero(normal):
+            self.anchors[row].update(float(uncertainty[row]), goals[row])
+
+    def _holding(self, row: int, fingers: np.ndarray) -> bool:
+        """Whether rollout `row` holds the object: it last commanded "close" and the fingers rest apart."""
+        return bool(self.last_gripper[row] == GRIPPER_CLOSE) and is_holding(fingers[row])
+
+    def _carry(self, row: int, grip: np.ndarray) -> Manoeuvre:
+        cfg = self.recovery
+        held_offset = self.object_beliefs[row] - grip
+        return carry_to_goal(
+            grip,
+            self.anchors[row].goal,
+            held_offset,
+            cfg.anchor_steps,
+            cfg.move_tolerance,
+            cfg.anchor_release,
+        )
 
     def _apply(self, row: int, change: MemoryChange) -> None:
         memory = self.policy._memory
@@ -173,20 +224,36 @@ class IntrospectiveController(BVMCRolloutWrapper):
 
     def _min_unc_action(self, prediction: MCPrediction, row: int) -> np.ndarray:
         """The candidate action of `row` (a sample, widened by `candidate_noise`) with the lowest foreseen
-        uncertainty of the next step."""
+        uncertainty of the next step (or, as `min_unc_choice` says, the mean or a random candidate)."""
+        choice = self.recovery.min_unc_choice
+        if choice == "mean":
+            return prediction.mean_action[row].cpu().numpy()
         candidates = widen_candidates(prediction.samples[row : row + 1], self.candidate_noise, self.generator)
+        if choice == "random":
+            return candidates[0, int(self.rng.integers(candidates.shape[1]))].cpu().numpy()
         foreseen = self.policy.foresee(prediction.embedding[row : row + 1], candidates)
         return candidates[0, int(foreseen[0].argmin())].cpu().numpy()
 
-    def _begin_recovery(self, row: int, grip: np.ndarray, window_sum: float) -> Manoeuvre:
+    def _begin_recovery(
+        self, row: int, grip: np.ndarray, window_sum: float, fingers: np.ndarray | None
+    ) -> Manoeuvre:
         mode, cfg = self.recovery.mode, self.recovery
-        if mode == "min_unc":
+        if mode == "anchor":
+            holding = self._holding(row, fingers)
+            if holding:
+                manoeuvre = self._carry(row, grip)
+            elif cfg.anchor_grasp:
+                manoeuvre = regrasp(grip, self.object_beliefs[row], cfg.anchor_steps, cfg.move_tolerance)
+            else:
+                manoeuvre = reapproach(grip, self.object_beliefs[row], cfg.anchor_steps, cfg.move_tolerance)
+            event_extra = {"holding": holding, "target": manoeuvre.target.round(4).tolist()}
+        elif mode == "min_unc":
             manoeuvre = BacktrackThenFollow(
                 list(self.fifos[row]),
                 cfg.recovery_steps,
                 cfg.backtrack_horizon,
                 cfg.backtrack_tolerance,
-                reset_memory=cfg.min_unc_memory == "reset",
+                memory=cfg.min_unc_memory,
             )
             event_extra = {"backtrack_to_step": manoeuvre.target.step}
         elif mode == "rand":
@@ -215,6 +282,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
             self._start_batch(batch_size, grip)
         for observer in self.observers:
             observer.observe(batch)
+        fingers = self.finger_joints(batch) if self.recovery.mode == "anchor" else None
         for row, manoeuvre in enumerate(self.manoeuvres):
             if manoeuvre is not None:
                 change = manoeuvre.advance(grip[row])
@@ -222,6 +290,8 @@ class IntrospectiveController(BVMCRolloutWrapper):
                     self._apply(row, change)
                 if manoeuvre.finished:
                     self.manoeuvres[row] = None
+                    if getattr(manoeuvre, "then_carry", False) and self._holding(row, fingers):
+                        self.manoeuvres[row] = self._carry(row, grip[row])  # a re-grasp that held
 
         keep_fifo = self.recovery.mode == "min_unc"
         # The live memory, not a copy: `sample` replaces it with new tensors, and `memory_row` copies rows.
@@ -236,6 +306,8 @@ class IntrospectiveController(BVMCRolloutWrapper):
                 self.fifos[row].append(
                     FifoEntry(float(uncertainty[row]), memory_row(memory_before, row), grip[row], self.step)
                 )
+        if self.recovery.mode == "anchor":
+            self._update_beliefs(prediction, uncertainty, normal)
         fire = self.trigger.update(uncertainty, normal)
         window_sum = self.trigger.decision_sums
 
@@ -243,7 +315,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
         phases = np.zeros(batch_size, dtype=np.int8)
         for row in range(batch_size):
             if fire[row]:
-                self.manoeuvres[row] = self._begin_recovery(row, grip[row], float(window_sum[row]))
+                self.manoeuvres[row] = self._begin_recovery(row, grip[row], float(window_sum[row]), fingers)
             manoeuvre = self.manoeuvres[row]
             if manoeuvre is None:
                 phases[row] = NORMAL
@@ -252,6 +324,8 @@ class IntrospectiveController(BVMCRolloutWrapper):
             action = manoeuvre.act(grip[row], lambda row=row: self._min_unc_action(prediction, row))
             actions[row] = torch.as_tensor(action, dtype=actions.dtype, device=actions.device)
 
+        commands = np.rint(actions[:, -1].float().cpu().numpy()).astype(np.int64)
+        self.last_gripper = np.where(commands != GRIPPER_NOOP, commands, self.last_gripper)
         trace = self.traces[-1]
         trace.uncertainty.append(uncertainty)
         trace.window_sum.append(window_sum.copy())

@@ -1,4 +1,5 @@
-"""The recovery motions: min_unc's back-track and minimum-uncertainty steps, rand's random moves, init's move.
+"""The recovery motions: min_unc's back-track and minimum-uncertainty steps, rand's random moves, init's move
+(anchor's are in `anchor.py`).
 
 Each is a small state machine for one rollout of a batch. At the start of every step the controller calls
 `advance` with the grip point's position (it may end the manoeuvre and ask for a memory change); after the
@@ -15,9 +16,18 @@ from torch import Tensor
 
 from lerobot_ivmc.envs.fetch_env import GRIPPER_NOOP, GRIPPER_OPEN, POSITION_SCALE
 
-# Phases recorded per step in the traces.
-NORMAL, BACKTRACK, FOLLOW_MIN_UNC, RANDOM_MOVES, MOVE_TO_INIT = range(5)
-PHASE_NAMES = ("normal", "backtrack", "follow_min_unc", "rand", "init")
+# Phases recorded per step in the traces (the last three: `anchor.py`'s manoeuvres).
+NORMAL, BACKTRACK, FOLLOW_MIN_UNC, RANDOM_MOVES, MOVE_TO_INIT, CARRY_TO_GOAL, REAPPROACH, REGRASP = range(8)
+PHASE_NAMES = (
+    "normal",
+    "backtrack",
+    "follow_min_unc",
+    "rand",
+    "init",
+    "carry_to_goal",
+    "reapproach",
+    "regrasp",
+)
 
 
 def move_towards(grip: np.ndarray, target: np.ndarray, gripper: int = GRIPPER_NOOP) -> np.ndarray:
@@ -65,18 +75,19 @@ class Manoeuvre:
 
 class BacktrackThenFollow(Manoeuvre):
     """min_unc: move back to the FIFO's point of minimum uncertainty, restore the memory saved there (or
-    reset it), then for `steps` steps execute the sampled action of lowest foreseen uncertainty.
+    reset it, or keep it), then for `steps` steps execute the sampled action of lowest foreseen uncertainty.
 
     Args:
         fifo: the last normal steps, oldest first.
         steps: steps of following the minimum foreseen uncertainty.
         horizon: most steps the back-track may take.
         tolerance: the back-track ends this close (metres) to the target.
-        reset_memory: after the back-track, reset the memory instead of restoring the saved one.
+        memory: after the back-track, "restore" the memory saved at the target, "reset" it, or "keep" the
+            memory as it is.
     """
 
     def __init__(
-        self, fifo: list[FifoEntry], steps: int, horizon: int, tolerance: float, reset_memory: bool = False
+        self, fifo: list[FifoEntry], steps: int, horizon: int, tolerance: float, memory: str = "restore"
     ):
         if not fifo:
             raise ValueError("Back-tracking needs at least one step in the FIFO.")
@@ -85,7 +96,7 @@ class BacktrackThenFollow(Manoeuvre):
         self.steps_left = steps
         self.backtrack_steps_left = horizon
         self.tolerance = tolerance
-        self.reset_memory = reset_memory
+        self.memory = memory
         self.finished = False
 
     def advance(self, grip: np.ndarray) -> MemoryChange | None:
@@ -93,7 +104,9 @@ class BacktrackThenFollow(Manoeuvre):
             np.linalg.norm(grip - self.target.grip) <= self.tolerance or self.backtrack_steps_left == 0
         ):
             self.phase = FOLLOW_MIN_UNC
-            return MemoryChange(None if self.reset_memory else self.target.memory)
+            if self.memory == "keep":
+                return None
+            return MemoryChange(None if self.memory == "reset" else self.target.memory)
         if self.phase == FOLLOW_MIN_UNC and self.steps_left == 0:
             self.finished = True
         return None

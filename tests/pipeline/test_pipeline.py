@@ -322,6 +322,7 @@ def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Pa
     # The main seed's rows are the Table I rows themselves (VMC, and BVMC without recovery).
     assert spread["rows"][0]["subtasks"] == results["rows"][0]["subtasks"]
     assert spread["rows"][2]["subtasks"] == results["rows"][1]["subtasks"]
+
     def method(row: dict) -> str:
         return row.get("method", "vmc" if row["model"] == "VMC" else "none")
 

@@ -30,11 +30,13 @@ def to_batch(observation: dict) -> dict[str, torch.Tensor]:
     }
 
 
-def scripted_policy(uncertainties: list[float], move: list[float]) -> BVMCPolicy:
+def scripted_policy(
+    uncertainties: list[float], move: list[float], gripper: float = 0.0, **config
+) -> BVMCPolicy:
     """A bvmc (random weights, foresight head) whose step t reports `uncertainties[t]` and whose mean
-    action is the constant `move` with the gripper kept (so its path is known)."""
+    action is the constant `move` with the gripper command `gripper` (kept: 0), so its path is known."""
     torch.manual_seed(0)
-    policy = BVMCPolicy(make_config(BVMCConfig, num_samples=8))
+    policy = BVMCPolicy(make_config(BVMCConfig, num_samples=8, **config))
     policy.attach_foresight()
     policy.eval()
     sample = policy.sample
@@ -44,7 +46,7 @@ def scripted_policy(uncertainties: list[float], move: list[float]) -> BVMCPolicy
         prediction = sample(batch, *args, **kwargs)
         t = min(step["t"], len(uncertainties) - 1)
         step["t"] += 1
-        mean = torch.tensor([[*move, 0.0]], dtype=prediction.mean_action.dtype)
+        mean = torch.tensor([[*move, gripper]], dtype=prediction.mean_action.dtype)
         return dataclasses.replace(prediction, uncertainty=torch.tensor([uncertainties[t]]), mean_action=mean)
 
     policy.sample = scripted
@@ -155,6 +157,56 @@ def test_min_unc_executes_the_candidate_with_the_lowest_foreseen_uncertainty() -
     policy.foresee = lambda e, a: torch.where(torch.arange(a.shape[1]) == 5, 0.0, 1.0)[None]
     np.testing.assert_array_equal(controller._min_unc_action(prediction, 0), prediction.samples[0, 5].numpy())
     env.close()
+
+
+def test_min_unc_memory_keep_backtracks_without_touching_the_memory() -> None:
+    """`--recovery.min_unc_memory=keep` (the back-track-only ablation): no memory change at all."""
+    stream = [0.2] * 4 + [0.01] + [0.2] * 5 + [1.0] + [0.2] * 100
+    policy = scripted_policy(stream, move=[0.0, 0.6, 0.0])
+    cfg = RecoveryConfig(
+        mode="min_unc", window=1, initial_interval=0, recovery_steps=3, min_unc_memory="keep"
+    )
+    controller = IntrospectiveController(policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS)
+    changes, apply = [], controller._apply
+
+    def recording_apply(row, change):
+        apply(row, change)
+        changes.append(change)
+
+    controller._apply = recording_apply
+    grips, _ = run_episode(controller, steps=20)
+    phases = np.stack(controller.traces[-1].phase)[:, 0]
+    assert (phases == BACKTRACK).any() and (phases == FOLLOW_MIN_UNC).any()  # it back-tracked, then followed
+    assert changes == []
+
+
+def test_min_unc_choice_mean_and_random_replace_the_foresight_choice() -> None:
+    """The ablations of the foresight head: the Monte Carlo mean, or a candidate drawn at random (seeded)."""
+    policy = scripted_policy([0.0], move=[0.0, 0.0, 0.0])
+    policy.foresee = lambda e, a: torch.where(torch.arange(a.shape[1]) == 5, 0.0, 1.0)[None]  # prefers 5
+    env = make_task_env("pick_place", image_size=64)
+    observation, _ = env.reset(seed=1)
+    prediction = policy.sample(to_batch(observation))
+    env.close()
+
+    def choose(choice: str, seed: int = 0) -> np.ndarray:
+        cfg = RecoveryConfig(mode="min_unc", min_unc_choice=choice)
+        controller = IntrospectiveController(
+            policy, cfg, threshold=1.0, window=20, env_state_stats=IDENTITY_STATS, seed=seed
+        )
+        return controller._min_unc_action(prediction, 0)
+
+    np.testing.assert_array_equal(choose("foresight"), prediction.samples[0, 5].numpy())
+    np.testing.assert_array_equal(choose("mean"), prediction.mean_action[0].numpy())
+    samples = prediction.samples[0].numpy()
+    drawn = [choose("random", seed) for seed in range(6)]
+    assert all(any((d == sample).all() for sample in samples) for d in drawn)
+    np.testing.assert_array_equal(drawn[0], choose("random", 0))  # seeded
+    assert len({tuple(d) for d in drawn}) > 1 or len({tuple(s) for s in samples}) == 1
+    with pytest.raises(ValueError, match="min_unc_choice must be one of"):
+        RecoveryConfig(mode="min_unc", min_unc_choice="best")
+    with pytest.raises(ValueError, match="no effect with --recovery.mode=rand"):
+        RecoveryConfig(mode="rand", min_unc_choice="mean")
 
 
 def test_min_unc_widens_its_candidates_with_the_noise_the_head_was_distilled_with() -> None:

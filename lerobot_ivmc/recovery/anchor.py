@@ -1,0 +1,210 @@
+"""Anchored recovery (beyond the paper): act on what the policy believed when it was most certain.
+
+The studies' failures are beliefs that drift while the uncertainty rises (docs/RESULTS.md): in pick_place
+the goal the network believes slides toward the carried cube, and the cube is put down short of the target;
+a retry of the same policy from nearby repeats the slide (memory restored: nothing rescued; memory reset:
+a quarter). The network's goal head knew the target when its uncertainty was low, and its object head
+knows where the object is when the trigger fires (median error about 1 cm on pick_place's failures).
+`anchor` keeps, for every rollout, the goal believed over its least uncertain steps and, when the trigger
+fires, moves by the policy's beliefs, choosing by what the robot feels:
+
+- holding the object (the last gripper command was "close" and the fingers rest apart, on something):
+  carry it so that the object, where the policy believes it sits in the hand, comes over the anchored goal,
+  lower it and, where the task ends with the object let go (`release`), open the gripper and rise;
+- not holding it, with `grasp`: open, rise above the object where the policy believes it now, descend,
+  close, lift and, if the fingers now hold it, carry it to the anchored goal as above;
+- not holding it, without `grasp` (a task whose object must not be picked up, push): open, rise above
+  the believed object.
+
+Then the policy takes over again, with a fresh memory (with the object still held and no release, with its
+memory as it is). Only the robot's own senses and the policy's heads are read: the grip point's position
+(forward kinematics), the finger joints, the gripper commands it sent, and the network's auxiliary object
+and goal estimates (its deterministic pass).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from lerobot_ivmc.envs.fetch_env import GRIPPER_CLOSE, GRIPPER_OPEN
+from lerobot_ivmc.recovery.manoeuvres import (
+    CARRY_TO_GOAL,
+    REAPPROACH,
+    REGRASP,
+    Manoeuvre,
+    MemoryChange,
+    move_towards,
+)
+
+# The fingers hold something when their joint positions sum to a gap between these (metres): fully
+# closed on nothing is ~0, fully open ~0.1; the cube holds them at ~0.048, the stick at ~0.025.
+HELD_GAP = (0.01, 0.09)
+# The anchored goal is the mean of the goals believed at this many least uncertain steps (one step's
+# belief is noisier: on pick_place's validation failures 50% of single-step anchors fell within the
+# target's 3 cm radius, 67% of 10-step means).
+ANCHOR_GOAL_STEPS = 10
+# Carry at least this high above the believed goal (metres), so the object clears the table on the way.
+CARRY_CLEARANCE = 0.05
+# The object is lowered to this height above the believed goal (metres) before it is let go.
+PLACE_CLEARANCE = 0.02
+# After a release, the gripper rises this far (metres) with open fingers.
+RELEASE_LIFT = 0.05
+# A re-approach or a re-grasp starts this high above the believed object (metres): the start pose's height.
+APPROACH_HEIGHT = 0.1
+# The grip point closes this high above the believed object's centre (metres), as the scripted demos do.
+GRASP_HEIGHT = 0.01
+# Steps the gripper is commanded to close (or open) in place: the fingers settle in about five.
+FINGER_STEPS = 6
+# Largest grip-point move per step while anchored (metres): the scripted demos' speed.
+ANCHOR_SPEED = 0.03
+# The largest believed offset of a held object from the grip point that is corrected for (metres).
+MAX_HELD_OFFSET = 0.05
+
+
+def is_holding(finger_joints: np.ndarray) -> bool:
+    """Whether the fingers (their two joint positions, metres) rest apart on an object."""
+    gap = float(np.sum(finger_joints))
+    return HELD_GAP[0] < gap < HELD_GAP[1]
+
+
+class BeliefAnchor:
+    """One rollout's record of the goal the policy believed at each normal step, with its uncertainty."""
+
+    def __init__(self):
+        self.uncertainties: list[float] = []
+        self.goals: list[np.ndarray] = []
+
+    def update(self, uncertainty: float, goal_belief: np.ndarray) -> None:
+        """Add one normal step's uncertainty and believed goal, (3,)."""
+        self.uncertainties.append(uncertainty)
+        self.goals.append(goal_belief.copy())
+
+    @property
+    def goal(self) -> np.ndarray:
+        """(3,) the mean of the goals believed at the `ANCHOR_GOAL_STEPS` least uncertain steps so far."""
+        if not self.goals:
+            raise ValueError("No belief recorded yet: the trigger cannot fire before a normal step.")
+        least = np.argsort(self.uncertainties, kind="stable")[:ANCHOR_GOAL_STEPS]
+        return np.mean([self.goals[i] for i in least], axis=0)
+
+
+@dataclass
+class Waypoint:
+    """A grip-point position to move to with a gripper command, held `hold` steps once reached."""
+
+    position: np.ndarray
+    gripper: int
+    hold: int = 0
+
+
+class WaypointMoves(Manoeuvre):
+    """Moves the grip point through waypoints at `ANCHOR_SPEED`, then hands back to the policy.
+
+    Args:
+        waypoints: in order.
+        steps: most steps of the manoeuvre.
+        tolerance: metres from a waypoint that count as reached.
+        phase: the phase recorded in the traces.
+        reset_memory: hand back with a fresh memory (else with the memory as it is).
+        then_carry: once over, the controller carries the object to the anchored goal if it holds it.
+    """
+
+    def __init__(
+        self,
+        waypoints: list[Waypoint],
+        steps: int,
+        tolerance: float,
+        phase: int,
+        reset_memory: bool,
+        then_carry: bool = False,
+    ):
+        self.waypoints = list(waypoints)
+        self.target = waypoints[-1].position
+        self.steps_left = steps
+        self.tolerance = tolerance
+        self.phase = phase
+        self.reset_memory = reset_memory
+        self.then_carry = then_carry
+        self.held = 0
+        self.finished = False
+
+    def advance(self, grip: np.ndarray) -> MemoryChange | None:
+        while self.waypoints and np.linalg.norm(grip - self.waypoints[0].position) <= self.tolerance:
+            if self.held < self.waypoints[0].hold:
+                break
+            self.waypoints.pop(0)
+            self.held = 0
+        if not self.waypoints or self.steps_left == 0:
+            self.finished = True
+            return MemoryChange(None) if self.reset_memory else None
+        return None
+
+    def act(self, grip: np.ndarray, min_unc_action: Callable[[], np.ndarray]) -> np.ndarray:
+        self.steps_left -= 1
+        waypoint = self.waypoints[0]
+        if np.linalg.norm(grip - waypoint.position) <= self.tolerance:
+            self.held += 1
+        offset = waypoint.position - grip
+        distance = float(np.linalg.norm(offset))
+        target = waypoint.position if distance <= ANCHOR_SPEED else grip + offset * (ANCHOR_SPEED / distance)
+        return move_towards(grip, target, waypoint.gripper)
+
+
+def carry_to_goal(
+    grip: np.ndarray,
+    goal: np.ndarray,
+    held_offset: np.ndarray,
+    steps: int,
+    tolerance: float,
+    release: bool,
+) -> WaypointMoves:
+    """Holding the object: rise to a carrying height, bring the object (at `held_offset` from the grip
+    point, clipped to `MAX_HELD_OFFSET`) over `goal` and down to `PLACE_CLEARANCE` above it with the
+    gripper closed; with `release`, open there and rise by `RELEASE_LIFT` (then a fresh memory)."""
+    offset = np.asarray(held_offset, dtype=np.float64)
+    norm = float(np.linalg.norm(offset))
+    if norm > MAX_HELD_OFFSET:
+        offset = offset * (MAX_HELD_OFFSET / norm)
+    place = np.asarray(goal, dtype=np.float64) - offset + np.array([0.0, 0.0, PLACE_CLEARANCE])
+    height = max(float(grip[2]), float(place[2]) + CARRY_CLEARANCE)
+    waypoints = [
+        Waypoint(np.array([place[0], place[1], height]), GRIPPER_CLOSE),
+        Waypoint(place, GRIPPER_CLOSE),
+    ]
+    if release:
+        waypoints[-1].hold = 1
+        waypoints.append(Waypoint(place, GRIPPER_OPEN, hold=FINGER_STEPS))
+        waypoints.append(Waypoint(place + np.array([0.0, 0.0, RELEASE_LIFT]), GRIPPER_OPEN))
+    moves = WaypointMoves(waypoints, steps, tolerance, CARRY_TO_GOAL, reset_memory=release)
+    moves.target = place
+    return moves
+
+
+def regrasp(grip: np.ndarray, obj: np.ndarray, steps: int, tolerance: float) -> WaypointMoves:
+    """Not holding: open, rise above the believed object, descend to `GRASP_HEIGHT` above its centre,
+    close, lift back up; then the controller carries it on if the fingers hold it."""
+    obj = np.asarray(obj, dtype=np.float64)
+    above = obj + np.array([0.0, 0.0, APPROACH_HEIGHT])
+    grasp = obj + np.array([0.0, 0.0, GRASP_HEIGHT])
+    rise = np.array([grip[0], grip[1], max(float(grip[2]), float(above[2]))])
+    waypoints = [
+        Waypoint(rise, GRIPPER_OPEN),
+        Waypoint(above, GRIPPER_OPEN),
+        Waypoint(grasp, GRIPPER_OPEN),
+        Waypoint(grasp, GRIPPER_CLOSE, hold=FINGER_STEPS),
+        Waypoint(above, GRIPPER_CLOSE),
+    ]
+    moves = WaypointMoves(waypoints, steps, tolerance, REGRASP, reset_memory=True, then_carry=True)
+    moves.target = grasp
+    return moves
+
+
+def reapproach(grip: np.ndarray, obj: np.ndarray, steps: int, tolerance: float) -> WaypointMoves:
+    """Not holding, without grasping: open, rise, and move above the believed object (a fresh memory)."""
+    above = np.asarray(obj, dtype=np.float64) + np.array([0.0, 0.0, APPROACH_HEIGHT])
+    rise = np.array([grip[0], grip[1], max(float(grip[2]), float(above[2]))])
+    waypoints = [Waypoint(rise, GRIPPER_OPEN), Waypoint(above, GRIPPER_OPEN)]
+    return WaypointMoves(waypoints, steps, tolerance, REAPPROACH, reset_memory=True)

@@ -1,0 +1,223 @@
+"""The anchor recovery mode: it carries a held object to the goal the policy believed when most certain, or
+re-approaches the object it believed; and no recovery mode reads the simulator's object state."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+from lerobot.utils.constants import OBS_ENV_STATE
+from policy_helpers import make_config
+from test_controller import IDENTITY_STATS, run_episode, scripted_policy, to_batch
+
+from lerobot_ivmc.envs import make_task_env
+from lerobot_ivmc.envs.fetch_env import GRIPPER_CLOSE, GRIPPER_OPEN
+from lerobot_ivmc.policies import BVMCConfig
+from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
+from lerobot_ivmc.recovery.anchor import (
+    APPROACH_HEIGHT,
+    FINGER_STEPS,
+    GRASP_HEIGHT,
+    PLACE_CLEARANCE,
+    RELEASE_LIFT,
+    BeliefAnchor,
+    is_holding,
+)
+from lerobot_ivmc.recovery.config import RECOVERY_MODES, RecoveryConfig
+from lerobot_ivmc.recovery.controller import IntrospectiveController
+from lerobot_ivmc.recovery.manoeuvres import CARRY_TO_GOAL, REAPPROACH, REGRASP
+
+STATE_IDENTITY = (torch.zeros(9), torch.ones(9))  # the batch carries raw joint positions
+WITH_GOAL_HEAD = {"goal_head": True, "training_mode": "sequence"}
+
+
+def test_is_holding_reads_the_finger_gap() -> None:
+    assert not is_holding(np.array([0.05, 0.05]))  # open
+    assert not is_holding(np.array([0.001, 0.0005]))  # closed on nothing
+    assert is_holding(np.array([0.024, 0.025]))  # on the 5 cm cube
+    assert is_holding(np.array([0.0125, 0.0125]))  # on the 2.5 cm stick
+
+
+def test_belief_anchor_averages_the_goals_of_the_least_uncertain_steps() -> None:
+    anchor = BeliefAnchor()
+    for step in range(30):  # steps 10..19 are the least uncertain
+        anchor.update(0.1 if 10 <= step < 20 else 0.5, np.array([float(step), 0.0, 0.0]))
+    np.testing.assert_allclose(anchor.goal, [14.5, 0.0, 0.0])
+    with pytest.raises(ValueError, match="No belief recorded"):
+        BeliefAnchor().goal  # noqa: B018
+
+
+def believing(policy: BVMCPolicy, objects: list[list[float]], goals: list[list[float]]) -> None:
+    """Patch the net's deterministic heads to believe `objects[t]` and `goals[t]` at step t (raw metres, as
+    the identity statistics read them)."""
+    decode, step = policy.net.decode, {"t": -1}
+
+    def scripted(e, stochastic, noise=None, with_goal=False):
+        outputs = decode(e, stochastic, noise, with_goal)
+        if stochastic or not with_goal:
+            return outputs
+        step["t"] += 1
+        t = min(step["t"], len(objects) - 1)
+        obj = torch.tensor([objects[t]], dtype=outputs[3].dtype)
+        goal = torch.tensor([goals[t]], dtype=outputs[4].dtype)
+        return (*outputs[:3], obj, goal)
+
+    policy.net.decode = scripted
+
+
+def anchor_controller(policy: BVMCPolicy, **recovery) -> IntrospectiveController:
+    cfg = RecoveryConfig(mode="anchor", window=1, initial_interval=0, **recovery)
+    return IntrospectiveController(
+        policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS, state_stats=STATE_IDENTITY
+    )
+
+
+def test_anchor_without_grasp_reapproaches_the_object_believed_now_with_a_fresh_memory() -> None:
+    stream = [0.2] * 3 + [0.05] + [0.2] * 4 + [1.0] + [0.0] * 100  # fires at step 8
+    policy = scripted_policy(stream, move=[0.0, 0.0, 0.0], **WITH_GOAL_HEAD)
+    objects = [[1.30, 0.70, 0.425]] * 8 + [[1.25, 0.75, 0.425]] + [[1.35, 0.65, 0.425]] * 200
+    believing(policy, objects, [[1.3, 0.8, 0.425]] * 200)
+    controller = anchor_controller(policy, anchor_grasp=False)
+    changes, apply = [], controller._apply
+
+    def recording_apply(row, change):
+        apply(row, change)
+        changes.append(change)
+
+    controller._apply = recording_apply
+    grips, actions = run_episode(controller, steps=40)
+    event = controller.traces[-1].events[0][0]
+    assert event["step"] == 8 and event["holding"] is False
+    target = np.array([1.25, 0.75, 0.425 + APPROACH_HEIGHT])  # above the object believed at the trigger
+    np.testing.assert_allclose(event["target"], target, atol=1e-4)
+    phases = np.stack(controller.traces[-1].phase)[:, 0]
+    moving = np.flatnonzero(phases == REAPPROACH)
+    assert moving[0] == 8 and all(actions[t][3] == GRIPPER_OPEN for t in moving)
+    end = moving[-1] + 1
+    assert np.linalg.norm(grips[end] - target) <= controller.recovery.move_tolerance
+    assert len(changes) == 1 and changes[0].memory is None  # then a fresh memory
+
+
+@pytest.mark.parametrize("release", [True, False])
+def test_anchor_holding_carries_to_the_goal_believed_at_the_least_uncertain_step(release: bool) -> None:
+    # Believed goals: (1.2, 0.8) at the ten least uncertain steps (u = 0.05), (1.4, 0.6) at the others.
+    stream = [0.05] * 10 + [0.2] * 3 + [1.0] + [0.0] * 100  # fires at step 13
+    policy = scripted_policy(stream, move=[0.0, 0.0, 0.0], gripper=GRIPPER_CLOSE, **WITH_GOAL_HEAD)
+    goals = [[1.20, 0.80, 0.425]] * 10 + [[1.40, 0.60, 0.425]] * 200
+    start = np.array([1.342, 0.749, 0.535])  # about the grip point's start; the object believed 2 cm ahead
+    believing(policy, [list(start + [0.02, 0.0, 0.0])] * 200, goals)
+    controller = anchor_controller(policy, anchor_release=release)
+    controller.finger_joints = lambda batch: np.array([[0.024, 0.024]])  # the fingers rest on the cube
+    changes, apply = [], controller._apply
+    controller._apply = lambda row, change: (changes.append(change), apply(row, change))
+    grips, actions = run_episode(controller, steps=60)
+    event = controller.traces[-1].events[0][0]
+    assert event["step"] == 13 and event["holding"] is True
+    held_offset = start + [0.02, 0.0, 0.0] - grips[13]  # where the policy believes the cube sits in the hand
+    target = np.array([1.20, 0.80, 0.425 + PLACE_CLEARANCE]) - held_offset  # the object over the goal
+    np.testing.assert_allclose(event["target"], target, atol=1e-4)
+    phases = np.stack(controller.traces[-1].phase)[:, 0]
+    carrying = np.flatnonzero(phases == CARRY_TO_GOAL)
+    at_goal = next(t for t in range(len(grips)) if np.linalg.norm(grips[t] - target) <= 0.01)
+    assert all(actions[t][3] == GRIPPER_CLOSE for t in carrying if t < at_goal)  # held all the way
+    assert phases[carrying[-1] + 1] == 0  # then the policy goes on
+    if release:  # opened at the goal, rose, and a fresh memory
+        opening = [t for t in carrying if actions[t][3] == GRIPPER_OPEN]
+        assert min(opening) >= at_goal and len(opening) >= FINGER_STEPS
+        assert grips[carrying[-1] + 1][2] > target[2] + RELEASE_LIFT - 0.011
+        assert len(changes) == 1 and changes[0].memory is None
+    else:  # handed back at the goal, still holding, its memory untouched
+        assert at_goal == carrying[-1] + 1 and changes == []
+    with pytest.raises(ValueError, match="no effect with --recovery.mode=init"):
+        RecoveryConfig(mode="init", anchor_release=False)
+
+
+@pytest.mark.parametrize("holds", [True, False])
+def test_anchor_regrasps_the_object_believed_now_and_carries_it_if_the_fingers_hold(holds: bool) -> None:
+    stream = [0.05] * 10 + [1.0] + [0.0] * 200  # fires at step 10, the gripper open
+    policy = scripted_policy(stream, move=[0.0, 0.0, 0.0], gripper=GRIPPER_OPEN, **WITH_GOAL_HEAD)
+    obj = [1.30, 0.70, 0.425]
+    believing(policy, [obj] * 300, [[1.20, 0.80, 0.425]] * 300)
+    controller = anchor_controller(policy, anchor_steps=60)
+    closed = {"yes": False}
+    open_fingers, held_fingers = np.array([[0.05, 0.05]]), np.array([[0.024, 0.024]])
+    controller.finger_joints = lambda batch: held_fingers if holds and closed["yes"] else open_fingers
+    changes, apply = [], controller._apply
+    controller._apply = lambda row, change: (changes.append(change), apply(row, change))
+    env = make_task_env("pick_place", image_size=64)
+    observation, _ = env.reset(seed=0)
+    controller.reset()
+    grips, actions = [], []
+    for _ in range(90):
+        grips.append(env.grip_position)
+        actions.append(controller.select_action(to_batch(observation))[0].numpy())
+        closed["yes"] = closed["yes"] or actions[-1][3] == GRIPPER_CLOSE
+        observation, *_ = env.step(actions[-1])
+    env.close()
+    event = controller.traces[-1].events[0][0]
+    grasp = np.array(obj) + [0.0, 0.0, GRASP_HEIGHT]
+    assert event["step"] == 10 and event["holding"] is False
+    np.testing.assert_allclose(event["target"], grasp, atol=1e-4)
+    phases = np.stack(controller.traces[-1].phase)[:, 0]
+    regrasping = np.flatnonzero(phases == REGRASP)
+    closing = [t for t in regrasping if actions[t][3] == GRIPPER_CLOSE]
+    assert np.linalg.norm(grips[closing[0]] - grasp) <= 0.011  # closes at the believed object
+    assert len([t for t in closing if np.linalg.norm(grips[t] - grasp) <= 0.011]) >= FINGER_STEPS
+    after = regrasping[-1] + 1
+    assert changes[0].memory is None  # the re-grasp ends with a fresh memory
+    if holds:  # then carries it to the anchored goal
+        assert phases[after] == CARRY_TO_GOAL
+    else:
+        assert phases[after] == 0 and len(changes) == 1
+
+
+def test_anchor_fingers_apart_while_opening_are_not_holding() -> None:
+    """Fingers between open and closed after an "open" command are letting go: a re-approach, no carry."""
+    stream = [0.2] * 3 + [1.0] + [0.0] * 100
+    policy = scripted_policy(stream, move=[0.0, 0.0, 0.0], gripper=GRIPPER_OPEN, **WITH_GOAL_HEAD)
+    believing(policy, [[1.3, 0.75, 0.425]] * 200, [[1.2, 0.8, 0.425]] * 200)
+    controller = anchor_controller(policy)
+    controller.finger_joints = lambda batch: np.array([[0.03, 0.03]])
+    run_episode(controller, steps=6)
+    assert controller.traces[-1].events[0][0]["holding"] is False
+
+
+def test_anchor_refuses_a_policy_without_the_goal_head() -> None:
+    policy = scripted_policy([0.0], move=[0.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="goal_head=true"):
+        anchor_controller(policy)
+
+
+@pytest.mark.parametrize("mode", [m for m in RECOVERY_MODES if m != "none"])
+def test_recovery_reads_nothing_of_the_simulator_state(mode: str) -> None:
+    """Each mode acts the same when the object's true position is withheld from the observation (NaN):
+    it reads only the camera, the proprioception, the grip point's position and the policy's heads."""
+    torch.manual_seed(0)
+    policy = BVMCPolicy(make_config(BVMCConfig, num_samples=8, **WITH_GOAL_HEAD))
+    policy.attach_foresight()
+    policy.eval()
+
+    def rollout(withhold: bool) -> list[np.ndarray]:
+        torch.manual_seed(1)
+        short = {"anchor_steps": 5} if mode == "anchor" else {"recovery_steps": 5}
+        cfg = RecoveryConfig(mode=mode, window=1, initial_interval=0, **short)
+        controller = IntrospectiveController(
+            policy, cfg, threshold=0.0, window=1, env_state_stats=IDENTITY_STATS, state_stats=STATE_IDENTITY
+        )
+        env = make_task_env("pick_place", image_size=64)
+        observation, _ = env.reset(seed=3)
+        controller.reset()
+        actions = []
+        for _ in range(30):
+            batch = to_batch(observation)
+            if withhold:
+                batch[OBS_ENV_STATE][:, 3:] = float("nan")
+            actions.append(controller.select_action(batch)[0].numpy())
+            observation, *_ = env.step(actions[-1])
+        env.close()
+        assert controller.traces[-1].events[0], "the threshold of 0 must fire a recovery"
+        return actions
+
+    with_state, withheld = rollout(False), rollout(True)
+    assert np.isfinite(np.stack(withheld)).all()
+    np.testing.assert_array_equal(np.stack(with_state), np.stack(withheld))
