@@ -86,6 +86,10 @@ class IvmcFetchEnv(gym.Env, EzPickle):
     object_grid: ClassVar[Grid]
     target_grid: ClassVar[Grid]
     target_radius: ClassVar[float] = 0.03
+    # How the task treats its object, for recovery that moves it (`recovery/anchor.py`): whether it is
+    # picked up at all, and whether the task ends with it still held (else it ends resting at the goal).
+    object_picked: ClassVar[bool] = True
+    object_held_at_end: ClassVar[bool] = False
 
     def __init__(
         self,

@@ -29,6 +29,7 @@ from lerobot.utils.constants import OBS_ENV_STATE, OBS_STATE
 from lerobot.utils.random_utils import set_seed
 
 from lerobot_ivmc.datasets.root_lock import EVAL_LOCK_FILE, RootLock
+from lerobot_ivmc.envs import task_env_class
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
 from lerobot_ivmc.envs.vector_env import make_vector_env
 from lerobot_ivmc.evaluation.compatibility import check_policy_matches_env
@@ -169,9 +170,10 @@ def run_evaluation(cfg: IvmcEvalConfig, output_dir: Path, ignore_stored_threshol
     if is_bayesian:
         if cfg.recovery.mode != "none" and cfg.recovery.max_videos > 0:
             video_store = RecoveryVideoStore(cfg.recovery.max_videos, policy.config.image_feature_key)
+        task = task_env_class(cfg.env.task)
         controller = IntrospectiveController(
             policy,
-            cfg.recovery,
+            cfg.recovery.for_task(task.object_picked, task.object_held_at_end),
             threshold,
             window,
             env_state_stats(loaded.preprocessor),

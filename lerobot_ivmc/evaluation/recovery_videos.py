@@ -28,6 +28,7 @@ PHASE_COLOURS = {
     4: "tab:brown",
     5: "tab:cyan",
     6: "tab:olive",
+    7: "tab:pink",
 }
 # The camera images are enlarged by a whole factor (nearest pixel) to at least this side in the videos.
 VIDEO_MIN_SIDE = 256
@@ -134,4 +135,4 @@ def write_recovery_video(path: Path, frames: np.ndarray, episode: dict, threshol
 
 def recovery_phase_summary(episode: dict) -> dict[str, int]:
     """Steps spent in each phase other than normal operation."""
-    return {PHASE_NAMES[p]: int((episode["phase"] == p).sum()) for p in PHASE_COLOURS if p != NORMAL}
+    return {name: int((episode["phase"] == p).sum()) for p, name in enumerate(PHASE_NAMES) if p != NORMAL}

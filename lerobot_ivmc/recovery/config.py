@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 # none: Bayesian VMC without recovery; min_unc: the paper's back-track and minimum-uncertainty recovery;
 # rand and init: the paper's baselines ("Baselines for Visuomotor Control Recovery"); anchor (beyond the
@@ -60,12 +60,12 @@ class RecoveryConfig:
             head): the Monte Carlo mean, i.e. the policy acting as it would without recovery, and one
             candidate drawn uniformly.
         anchor_steps: most steps of one anchor manoeuvre (a carry across the table takes about 20).
-        anchor_release: anchor lets a carried object go at the believed goal and rises: for tasks that end
-            with the object resting at its goal (pick_place). False for tasks that end holding it
-            (pick_reach): it hands back at the goal, still holding, with the memory as it is.
-        anchor_grasp: anchor grasps an object it does not hold where the policy believes it (tasks whose
-            object is picked up). False for tasks whose object must not be picked up (push): it only
-            rises above the believed object and hands back with a fresh memory.
+        anchor_release: anchor lets a carried object go at the believed goal and rises (for tasks that end
+            with the object resting at its goal); False: it hands back at the goal, still holding, with the
+            memory as it is (for tasks that end holding it). None: from the task (False for pick_reach).
+        anchor_grasp: anchor grasps an object it does not hold where the policy believes it; False: it
+            only rises above the believed object and hands back with a fresh memory (for tasks whose
+            object is not picked up). None: from the task (False for push).
         max_videos: at most this many videos of episodes with a recovery, the uncertainty trace drawn under
             the frames (frames are rendered for every episode until they are found; 0 disables).
     """
@@ -85,9 +85,17 @@ class RecoveryConfig:
     min_unc_memory: str = "restore"
     min_unc_choice: str = "foresight"
     anchor_steps: int = 40
-    anchor_release: bool = True
-    anchor_grasp: bool = True
+    anchor_release: bool | None = None
+    anchor_grasp: bool | None = None
     max_videos: int = 4
+
+    def for_task(self, object_picked: bool, object_held_at_end: bool) -> RecoveryConfig:
+        """These settings with anchor's unset task-dependent ones taken from the task's object handling."""
+        return replace(
+            self,
+            anchor_release=not object_held_at_end if self.anchor_release is None else self.anchor_release,
+            anchor_grasp=object_picked if self.anchor_grasp is None else self.anchor_grasp,
+        )
 
     def __post_init__(self) -> None:
         if self.mode not in RECOVERY_MODES:
@@ -124,7 +132,7 @@ class RecoveryConfig:
             raise ValueError(
                 f"--recovery.min_unc_memory must be one of {MIN_UNC_MEMORY}, got {self.min_unc_memory!r}."
             )
-        if (self.anchor_steps, self.anchor_release, self.anchor_grasp) != (40, True, True) and (
+        if (self.anchor_steps, self.anchor_release, self.anchor_grasp) != (40, None, None) and (
             self.mode != "anchor"
         ):
             raise ValueError(

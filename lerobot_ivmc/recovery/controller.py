@@ -113,6 +113,9 @@ class IntrospectiveController(BVMCRolloutWrapper):
         state_stats: tuple[Tensor, Tensor] | None = None,
     ):
         super().__init__(policy)
+        # Anchor's task-dependent settings left unset (`RecoveryConfig.for_task` fills them from the task):
+        # those of a task that picks its object up and lets it go at the goal, as pick_place.
+        recovery = recovery.for_task(object_picked=True, object_held_at_end=False)
         if recovery.mode != "none" and threshold is None:
             raise ValueError(f"Recovery mode {recovery.mode!r} needs a threshold.")
         if recovery.mode == "min_unc":

@@ -10,7 +10,7 @@ from lerobot.utils.constants import OBS_ENV_STATE
 from policy_helpers import make_config
 from test_controller import IDENTITY_STATS, run_episode, scripted_policy, to_batch
 
-from lerobot_ivmc.envs import make_task_env
+from lerobot_ivmc.envs import make_task_env, task_env_class
 from lerobot_ivmc.envs.fetch_env import GRIPPER_CLOSE, GRIPPER_OPEN
 from lerobot_ivmc.policies import BVMCConfig
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
@@ -221,3 +221,19 @@ def test_recovery_reads_nothing_of_the_simulator_state(mode: str) -> None:
     with_state, withheld = rollout(False), rollout(True)
     assert np.isfinite(np.stack(withheld)).all()
     np.testing.assert_array_equal(np.stack(with_state), np.stack(withheld))
+
+
+def test_anchor_takes_its_object_handling_from_the_task_unless_given() -> None:
+    """push's cube is never picked up (no re-grasp); pick_reach's stick is held at the end (no release)."""
+    for task, grasp, release in [
+        ("push", False, True),
+        ("pick_place", True, True),
+        ("pick_reach", True, False),
+    ]:
+        env_class = task_env_class(task)
+        settings = RecoveryConfig(mode="anchor").for_task(
+            env_class.object_picked, env_class.object_held_at_end
+        )
+        assert (settings.anchor_grasp, settings.anchor_release) == (grasp, release), task
+    given = RecoveryConfig(mode="anchor", anchor_grasp=True, anchor_release=False).for_task(False, False)
+    assert (given.anchor_grasp, given.anchor_release) == (True, False)

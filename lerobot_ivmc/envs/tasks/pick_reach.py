@@ -29,6 +29,7 @@ class PickReachEnv(IvmcFetchEnv):
     # Two non-overlapping 6x8 grids, 3 cm apart: sticks on the robot's right, targets on its left.
     object_grid = Grid(x_range=(1.20, 1.35), y_range=(0.48, 0.69))
     target_grid = Grid(x_range=(1.30, 1.45), y_range=(0.81, 1.02))
+    object_held_at_end = True  # the stick touches the target while held
 
     @property
     def grasp_point(self) -> np.ndarray:

@@ -21,6 +21,7 @@ class PushEnv(IvmcFetchEnv):
     object_shape = ObjectShape(half_size=(0.025, 0.025, 0.025), mass=2.0)
     object_grid = TABLE_GRID
     target_grid = TABLE_GRID
+    object_picked = False  # pushed, never lifted
 
     @classmethod
     def is_valid_scene(cls, scene: Scene) -> bool:
