@@ -22,8 +22,8 @@ from lerobot_ivmc.scripts.pick_threshold import THRESHOLD_METHODS
 
 # Shipped inside the package, so `--preset` works wherever the plugin is installed.
 PRESETS_DIR = Path(__file__).resolve().parent / "presets"
-# The rows of Table I: BVMC alone and with the paper's three recovery modes (`anchor` is added on request).
-PAPER_MODES = ("none", "rand", "init", "min_unc")
+# The BVMC rows of Table I: alone and with the paper's three recovery modes, then anchor (beyond the paper).
+DEFAULT_MODES = ("none", "rand", "init", "min_unc", "anchor")
 POLICY_TYPES = ("vmc", "bvmc")
 
 
@@ -170,7 +170,7 @@ class PipelineConfig:
     foresight: ForesightStageConfig = field(default_factory=ForesightStageConfig)
     threshold: ThresholdStageConfig = field(default_factory=ThresholdStageConfig)
     eval: EpisodesConfig = field(default_factory=EpisodesConfig)
-    recovery_modes: list[str] = field(default_factory=lambda: list(PAPER_MODES))
+    recovery_modes: list[str] = field(default_factory=lambda: list(DEFAULT_MODES))
     fig3: EpisodesConfig = field(default_factory=lambda: EpisodesConfig(n_episodes=800))
     async_envs: bool = False
 

@@ -36,6 +36,7 @@ METHOD_LABELS = {
     "rand": "BVMC + rand",
     "init": "BVMC + init",
     "min_unc": "BVMC + min unc",
+    "anchor": "BVMC + anchor (beyond the paper)",
 }
 MAX_VIDEOS = 3
 
@@ -60,7 +61,7 @@ def table_rows(cfg: PipelineConfig, stages: list[Stage], fcs: list[int]) -> list
                 "subtasks": subtask_rates(info),
                 "paper": {
                     sub: {"rate": v[0], "stderr": v[1]}
-                    for sub, v in PAPER_TABLE[cfg.task][fc][method].items()
+                    for sub, v in PAPER_TABLE[cfg.task][fc].get(method, {}).items()
                 },
             }
             success = list(row["subtasks"])[-1]

@@ -90,7 +90,10 @@ class RecoveryConfig:
     max_videos: int = 4
 
     def for_task(self, object_picked: bool, object_held_at_end: bool) -> RecoveryConfig:
-        """These settings with anchor's unset task-dependent ones taken from the task's object handling."""
+        """These settings with anchor's unset task-dependent ones taken from the task's object handling (the
+        settings themselves for another mode)."""
+        if self.mode != "anchor":
+            return self
         return replace(
             self,
             anchor_release=not object_held_at_end if self.anchor_release is None else self.anchor_release,

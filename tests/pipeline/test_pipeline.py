@@ -17,7 +17,7 @@ from lerobot_ivmc.policies.vmc.modeling_vmc import cpu_has_native_bf16
 from lerobot_ivmc.recovery.threshold import argmax_threshold
 from lerobot_ivmc.scripts.pipeline import parse_config
 
-ROWS = ["vmc", "none", "rand", "init", "min_unc"]
+ROWS = ["vmc", "none", "rand", "init", "min_unc", "anchor"]
 
 
 def pipeline(*args: str) -> subprocess.CompletedProcess:
@@ -145,6 +145,7 @@ def test_extra_training_seeds_add_stages_and_leave_the_study_s_own_untouched(tmp
         "eval_bvmc_fc1_rand_seed2000",
         "eval_bvmc_fc1_init_seed2000",
         "eval_bvmc_fc1_min_unc_seed2000",
+        "eval_bvmc_fc1_anchor_seed2000",
         "detect_fc1_seed2000",
     ]
     # An extra seed's policies are checked and reported, never stop the study.
@@ -309,7 +310,7 @@ def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Pa
     seeded = pipeline("--task=push", "--preset=smoke", f"--output_dir={out}", "--train.extra_seeds=[7]")
     assert seeded.returncode == 0, seeded.stdout[-3000:] + seeded.stderr[-3000:]
     assert seeded.stdout.count("done earlier") == len(results["stage_wall_s"]), seeded.stdout
-    assert seeded.stdout.count(": running") == 12, seeded.stdout  # its whole chain
+    assert seeded.stdout.count(": running") == 13, seeded.stdout  # its whole chain
     with_seed = json.loads((out / "results" / "push.json").read_text())
     assert with_seed["complete"] is True and with_seed["rows"] == results["rows"]
     spread = with_seed["training_seeds"]
@@ -326,7 +327,7 @@ def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Pa
     def method(row: dict) -> str:
         return row.get("method", "vmc" if row["model"] == "VMC" else "none")
 
-    assert [entry["method"] for entry in spread["summary"]] == ["vmc", "none", "rand", "init", "min_unc"]
+    assert [entry["method"] for entry in spread["summary"]] == ROWS
     for entry in spread["summary"]:
         rates = [
             r["subtasks"]["push"]["rate"]
@@ -339,7 +340,7 @@ def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Pa
     assert "mean +- sd over 2 seeds" in (out / "results" / "table.md").read_text()
     # Each recovery row per seed, with its rescue against that seed's own BVMC, and pooled over the seeds.
     assert [(r["method"], r["train_seed"]) for r in spread["recovery_rows"]] == [
-        (mode, seed) for mode in ("rand", "init", "min_unc") for seed in (1000, 7)
+        (mode, seed) for mode in ("rand", "init", "min_unc", "anchor") for seed in (1000, 7)
     ]
     main_rescue = {r["method"]: r["rescue"] for r in with_seed["rows"] if "rescue" in r}
     for pooled in spread["pooled_rescue"]:

@@ -237,3 +237,4 @@ def test_anchor_takes_its_object_handling_from_the_task_unless_given() -> None:
         assert (settings.anchor_grasp, settings.anchor_release) == (grasp, release), task
     given = RecoveryConfig(mode="anchor", anchor_grasp=True, anchor_release=False).for_task(False, False)
     assert (given.anchor_grasp, given.anchor_release) == (True, False)
+    assert RecoveryConfig(mode="min_unc").for_task(False, True) == RecoveryConfig(mode="min_unc")
