@@ -150,15 +150,30 @@ class ThresholdRecord:
         return path
 
     @classmethod
-    def load(cls, folder: Path | str) -> ThresholdRecord | None:
-        """The record in a checkpoint folder, or None if it has none."""
+    def load(cls, folder: Path | str, **hub_kwargs) -> ThresholdRecord | None:
+        """The record of a checkpoint, a local folder or a hub repo id (fetched with `hf_hub_download` and
+        `hub_kwargs`, e.g. `revision`, `cache_dir`; the cache serves it offline), or None if it has none."""
         path = Path(folder) / THRESHOLD_FILE
-        if not path.is_file():
+        if not Path(folder).is_dir():
+            path = hub_file(str(folder), THRESHOLD_FILE, **hub_kwargs)
+        if path is None or not path.is_file():
             return None
         try:
             return cls(**json.loads(path.read_text()))
         except (ValueError, TypeError, KeyError) as error:  # (json's decode error is a ValueError)
             raise ValueError(f"{path} is not a valid threshold record ({error}); pick it again.") from error
+
+
+def hub_file(repo_id: str, filename: str, **hub_kwargs) -> Path | None:
+    """A file of a hub model repo, from the local cache or downloaded; None if the repo has no such file, the
+    name is no repo id, or it is neither cached nor reachable."""
+    from huggingface_hub import hf_hub_download
+    from huggingface_hub.errors import EntryNotFoundError, HFValidationError, LocalEntryNotFoundError
+
+    try:
+        return Path(hf_hub_download(repo_id=repo_id, filename=filename, **hub_kwargs))
+    except (EntryNotFoundError, LocalEntryNotFoundError, HFValidationError):
+        return None
 
 
 def resolve_threshold(

@@ -7,6 +7,7 @@ the covariance of the transformed delta-EE samples (the paper's Eqs. (weighted-c
 
 import logging
 from dataclasses import dataclass
+from pathlib import Path
 
 import torch
 from torch import Tensor, nn
@@ -16,7 +17,8 @@ from lerobot_ivmc.policies.bvmc.configuration_bvmc import DEFAULT_DATASET_SIZE, 
 from lerobot_ivmc.policies.bvmc.foresight import UncertaintyForesight, from_log_uncertainty
 from lerobot_ivmc.policies.bvmc.uncertainty import trace_cov_uncertainty
 from lerobot_ivmc.policies.vmc.configuration_vmc import ACTION_DIM
-from lerobot_ivmc.policies.vmc.modeling_vmc import VMCPolicy, gripper_commands
+from lerobot_ivmc.policies.vmc.modeling_vmc import HUB_KWARGS, VMCPolicy, gripper_commands
+from lerobot_ivmc.recovery.threshold import ThresholdRecord
 
 logger = logging.getLogger(__name__)
 
@@ -61,6 +63,9 @@ class BVMCPolicy(VMCPolicy):
 
     config_class = BVMCConfig
     name = "bvmc"
+    # The recovery threshold picked for this policy (`lerobot-ivmc-threshold`), read with the checkpoint
+    # (local or hub) and written back by `save_pretrained`, so `push_to_hub` keeps it.
+    threshold_record: ThresholdRecord | None = None
 
     def __init__(self, config: BVMCConfig, dataset_meta=None, **kwargs):
         super().__init__(config, dataset_meta=dataset_meta, **kwargs)
@@ -68,6 +73,25 @@ class BVMCPolicy(VMCPolicy):
         self.foresight: UncertaintyForesight | None = None
         if config.foresight_enabled:
             self.attach_foresight()
+
+    @classmethod
+    def from_pretrained(cls, pretrained_name_or_path: str | Path, **kwargs):
+        """LeRobot's loading (with VMC's legacy configs), and the checkpoint's threshold record if any."""
+        policy = super().from_pretrained(pretrained_name_or_path, **kwargs)
+        hub_kwargs = {k: kwargs[k] for k in HUB_KWARGS if k in kwargs and k != "resume_download"}
+        policy.threshold_record = ThresholdRecord.load(pretrained_name_or_path, **hub_kwargs)
+        return policy
+
+    def forward(self, batch: dict[str, Tensor]) -> tuple[Tensor, dict[str, float]]:
+        """VMC's training losses; a policy that trains drops its threshold (picked for other weights)."""
+        self.threshold_record = None
+        return super().forward(batch)
+
+    def _save_pretrained(self, save_directory: Path) -> None:
+        """LeRobot's config and weights, and the threshold record this policy was loaded with."""
+        super()._save_pretrained(save_directory)
+        if self.threshold_record is not None:
+            self.threshold_record.save(save_directory)
 
     def attach_foresight(self) -> UncertaintyForesight:
         """Add an (untrained) uncertainty foresight head and mark it in the config, so checkpoints keep it."""
