@@ -189,3 +189,30 @@ def test_rho_is_shown_with_the_bound_its_bins_allow(tmp_path: Path) -> None:
     (goal,) = json.loads(json_path.read_text())["goals"]
     assert goal["rho_met"] is False and goal["spearman_rho_best"] == pytest.approx(-0.7977, abs=1e-4)
     assert "| -0.80: **not met** (best attainable -0.80) |" in markdown_path.read_text()
+
+
+def test_rescue_per_mode_pooled_over_seeds_with_the_goal(tmp_path: Path) -> None:
+    results = study("pick_place", {1: {"vmc": 53.0, "none": 71.0, "min_unc": 73.0}}, True, 9000, -0.86)
+    rescue = {"failures": 29, "flagged": 25, "rescued": 2, "lost": 0, "rescue_rate": 2 / 29}
+    results["rows"][2]["rescue"] = {**rescue, "mcnemar_exact_p": 0.5}
+    (tmp_path / "pick_place.json").write_text(json.dumps(results))
+    markdown_path, json_path = write_summary(SummaryConfig(results_dir=tmp_path))
+    (line,) = json.loads(json_path.read_text())["rescue"]
+    assert (line["method"], line["train_seeds"], line["rescued"], line["goal_met"]) == (
+        "min_unc",
+        [1000],
+        2,
+        False,
+    )
+    assert "| pick_place | 1 | min_unc | 1000 | 29 (25) | 2 / 0 | 7% | 0.5 | **not met** |" in (
+        markdown_path.read_text()
+    )
+    # With extra seeds the pooled record counts: 40 of 60 failures rescued net, p far below 0.05.
+    pooled = {**rescue, "failures": 60, "rescued": 41, "lost": 1, "rescue_rate": 40 / 60, "exact_p": 1e-9}
+    results["training_seeds"]["pooled_rescue"] = [
+        {"num_fc_layers": 1, "method": "min_unc", "train_seeds": [1000, 2000], **pooled}
+    ]
+    (tmp_path / "pick_place.json").write_text(json.dumps(results))
+    _, json_path = write_summary(SummaryConfig(results_dir=tmp_path, output_dir=tmp_path / "again"))
+    (line,) = json.loads(json_path.read_text())["rescue"]
+    assert (line["train_seeds"], line["rescue_rate"], line["goal_met"]) == ([1000, 2000], 40 / 60, True)

@@ -8,7 +8,7 @@ import pytest
 import torch
 from lerobot.utils.constants import OBS_ENV_STATE
 from policy_helpers import make_config
-from test_controller import IDENTITY_STATS, run_episode, scripted_policy, to_batch
+from test_controller import IDENTITY_STATS, recorded_changes, run_episode, scripted_policy, to_batch
 
 from lerobot_ivmc.envs import make_task_env, task_env_class
 from lerobot_ivmc.envs.fetch_env import GRIPPER_CLOSE, GRIPPER_OPEN
@@ -78,13 +78,7 @@ def test_anchor_without_grasp_reapproaches_the_object_believed_now_with_a_fresh_
     objects = [[1.30, 0.70, 0.425]] * 8 + [[1.25, 0.75, 0.425]] + [[1.35, 0.65, 0.425]] * 200
     believing(policy, objects, [[1.3, 0.8, 0.425]] * 200)
     controller = anchor_controller(policy, anchor_grasp=False)
-    changes, apply = [], controller._apply
-
-    def recording_apply(row, change):
-        apply(row, change)
-        changes.append(change)
-
-    controller._apply = recording_apply
+    changes = recorded_changes(controller)
     grips, actions = run_episode(controller, steps=40)
     event = controller.traces[-1].events[0][0]
     assert event["step"] == 8 and event["holding"] is False
@@ -108,8 +102,7 @@ def test_anchor_holding_carries_to_the_goal_believed_at_the_least_uncertain_step
     believing(policy, [list(start + [0.02, 0.0, 0.0])] * 200, goals)
     controller = anchor_controller(policy, anchor_release=release)
     controller.finger_joints = lambda batch: np.array([[0.024, 0.024]])  # the fingers rest on the cube
-    changes, apply = [], controller._apply
-    controller._apply = lambda row, change: (changes.append(change), apply(row, change))
+    changes = recorded_changes(controller)
     grips, actions = run_episode(controller, steps=60)
     event = controller.traces[-1].events[0][0]
     assert event["step"] == 13 and event["holding"] is True
@@ -142,8 +135,7 @@ def test_anchor_regrasps_the_object_believed_now_and_carries_it_if_the_fingers_h
     closed = {"yes": False}
     open_fingers, held_fingers = np.array([[0.05, 0.05]]), np.array([[0.024, 0.024]])
     controller.finger_joints = lambda batch: held_fingers if holds and closed["yes"] else open_fingers
-    changes, apply = [], controller._apply
-    controller._apply = lambda row, change: (changes.append(change), apply(row, change))
+    changes = recorded_changes(controller)
     env = make_task_env("pick_place", image_size=64)
     observation, _ = env.reset(seed=0)
     controller.reset()

@@ -53,6 +53,18 @@ def scripted_policy(
     return policy
 
 
+def recorded_changes(controller: IntrospectiveController) -> list:
+    """The memory changes the controller applies from now on, in order (the list fills as it runs)."""
+    changes, apply = [], controller._apply
+
+    def recording_apply(row, change):
+        apply(row, change)
+        changes.append(change)
+
+    controller._apply = recording_apply
+    return changes
+
+
 def run_episode(controller: IntrospectiveController, steps: int, seed: int = 0) -> tuple[list, list]:
     """Step a pick_place env with the controller; return per-step grip positions and actions."""
     env = make_task_env("pick_place", image_size=64)
@@ -167,14 +179,8 @@ def test_min_unc_memory_keep_backtracks_without_touching_the_memory() -> None:
         mode="min_unc", window=1, initial_interval=0, recovery_steps=3, min_unc_memory="keep"
     )
     controller = IntrospectiveController(policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS)
-    changes, apply = [], controller._apply
-
-    def recording_apply(row, change):
-        apply(row, change)
-        changes.append(change)
-
-    controller._apply = recording_apply
-    grips, _ = run_episode(controller, steps=20)
+    changes = recorded_changes(controller)
+    run_episode(controller, steps=20)
     phases = np.stack(controller.traces[-1].phase)[:, 0]
     assert (phases == BACKTRACK).any() and (phases == FOLLOW_MIN_UNC).any()  # it back-tracked, then followed
     assert changes == []
