@@ -77,9 +77,18 @@ def __getattr__(name: str) -> Any:
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
+# Outside the time limit, so LeRobot's `add_envs_task` finds the instruction (`task_wrapper.py`).
+_TASK_WRAPPER = gym.envs.registration.WrapperSpec(
+    name="TaskDescription", entry_point="lerobot_ivmc.envs.task_wrapper:TaskDescription", kwargs={}
+)
 for _task, _entry_point in TASK_ENTRY_POINTS.items():
     if gym_id(_task) not in gym.registry:
-        gym.register(id=gym_id(_task), entry_point=_entry_point, max_episode_steps=MAX_EPISODE_STEPS)
+        gym.register(
+            id=gym_id(_task),
+            entry_point=_entry_point,
+            max_episode_steps=MAX_EPISODE_STEPS,
+            additional_wrappers=(_TASK_WRAPPER,),
+        )
 
 __all__ = [
     "DEMO_EPISODE_STEPS",

@@ -6,7 +6,7 @@ import sys
 import numpy as np
 from lerobot.envs.configs import EnvConfig
 from lerobot.envs.factory import make_env
-from lerobot.envs.utils import env_to_policy_features, preprocess_observation
+from lerobot.envs.utils import add_envs_task, env_to_policy_features, preprocess_observation
 
 from lerobot_ivmc.envs.configuration_ivmc import IMAGE_KEY, IvmcEnv
 
@@ -26,6 +26,10 @@ def test_make_env_builds_vectorised_envs_from_the_ivmc_config():
     assert truncated.all(), "episode_length becomes the TimeLimit"
     assert "is_success" in info["final_info"]
     assert vec.call("_max_episode_steps")[0] == 7
+    # LeRobot's rollout gives the policy the task's instruction, the one the demos' frames carry.
+    assert (
+        add_envs_task(vec, {"x": np.zeros((2, 1))})["task"] == ["Push the red cube onto the blue target."] * 2
+    )
     vec.close()
 
 
