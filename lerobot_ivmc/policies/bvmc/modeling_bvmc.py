@@ -131,7 +131,8 @@ class BVMCPolicy(VMCPolicy):
             total = getattr(dataset_meta, "total_frames", None)
             if total:
                 config.dataset_size = int(total)
-                logger.warning(
+                # Right for the whole dataset (stock `lerobot-train`'s usual case), so not a warning.
+                logger.info(
                     "Concrete dropout's N = %d, the whole dataset's frames. Training on a subset "
                     "(--dataset.episodes)? Pass --policy.dataset_size=<its frames>, or train with "
                     "lerobot-ivmc-train, which sets it.",
