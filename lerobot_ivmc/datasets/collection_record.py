@@ -1,4 +1,4 @@
-"""What a dataset's collector recorded about it (`meta/ivmc_collection.json`): here, its render style."""
+"""What a dataset's collector recorded about it (`meta/ivmc_collection.json`): its render style and task."""
 
 from __future__ import annotations
 
@@ -14,14 +14,28 @@ def spec_render_style(spec: dict) -> str:
     return spec.get("render_style", LEGACY_RENDER_STYLE)
 
 
-def dataset_render_style(root: Path) -> str | None:
-    """The render style of the dataset in `root`, or None if lerobot-ivmc-collect did not make it."""
+def collection_spec(root: Path) -> dict | None:
+    """The collection spec of the dataset in `root`, or None if lerobot-ivmc-collect did not make it."""
     path = Path(root) / COLLECTION_INFO_PATH
     if not path.exists():
         return None
     try:
-        return spec_render_style(json.loads(path.read_text())["spec"])
+        spec = json.loads(path.read_text())["spec"]
+        spec["task"]  # noqa: B018
+        return spec
     except (ValueError, KeyError, TypeError) as error:
         raise ValueError(
             f"{path} is not a readable collection record ({error}); recollect the dataset."
         ) from error
+
+
+def dataset_render_style(root: Path) -> str | None:
+    """The render style of the dataset in `root`, or None if lerobot-ivmc-collect did not make it."""
+    spec = collection_spec(root)
+    return None if spec is None else spec_render_style(spec)
+
+
+def dataset_task(root: Path) -> str | None:
+    """The ivmc task of the dataset in `root`, or None if lerobot-ivmc-collect did not make it."""
+    spec = collection_spec(root)
+    return None if spec is None else spec["task"]

@@ -89,6 +89,12 @@ def check_policy_matches_env(policy_cfg: PreTrainedConfig, env_cfg: EnvConfig) -
             f"it was trained on frames drawn in the {trained_style!r} render style, this env draws "
             f"{env_style!r}; pass --env.render_style={trained_style}"
         )
+    trained_task, env_task = getattr(policy_cfg, "trained_task", None), getattr(env_cfg, "task", None)
+    if None not in (trained_task, env_task) and trained_task != env_task:
+        problems.append(
+            f"it was trained on {trained_task!r} demos, this env is {env_task!r}; "
+            f"pass --env.task={trained_task}"
+        )
     if problems:
         env_name = getattr(env_cfg, "type", type(env_cfg).__name__)
         raise EnvMismatchError(

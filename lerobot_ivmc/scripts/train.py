@@ -26,7 +26,7 @@ from pathlib import Path
 from lerobot.datasets import factory
 from lerobot.scripts import lerobot_train
 
-from lerobot_ivmc.datasets.collection_record import dataset_render_style
+from lerobot_ivmc.datasets.collection_record import dataset_render_style, dataset_task
 from lerobot_ivmc.datasets.frame_cache import FrameCache
 from lerobot_ivmc.policies.legacy_configs import command_line_policy_fields, complete_legacy_config
 from lerobot_ivmc.scripts.errors import run_cli
@@ -64,6 +64,8 @@ def make_cached_dataset(cfg) -> FrameCache:
         cfg.policy.dataset_size = dataset.num_frames
     if hasattr(cfg.policy, "render_style"):
         record_render_style(cfg.policy, dataset_render_style(dataset.root))
+    if hasattr(cfg.policy, "trained_task"):
+        cfg.policy.trained_task = dataset_task(dataset.root)
     return dataset
 
 

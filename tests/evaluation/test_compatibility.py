@@ -69,6 +69,18 @@ def test_another_render_style_is_refused_naming_the_flag():
     check_policy_matches_env(policy_cfg, IvmcEnv(task="push", render_style="fetch"))
 
 
+def test_an_env_of_another_task_is_refused_naming_the_flag():
+    policy_cfg = _policy_config(64)
+    policy_cfg.trained_task = "push"
+    with pytest.raises(
+        EnvMismatchError, match=r"trained on 'push' demos, this env is 'pick_place'; pass --env.task=push"
+    ):
+        check_policy_matches_env(policy_cfg, IvmcEnv(task="pick_place"))
+    check_policy_matches_env(policy_cfg, IvmcEnv(task="push"))
+    policy_cfg.trained_task = None  # not known (plain lerobot-train, older checkpoints): features only
+    check_policy_matches_env(policy_cfg, IvmcEnv(task="pick_place"))
+
+
 def test_a_checkpoint_saved_before_render_styles_is_checked_as_the_fetch_style(tmp_path):
     BVMCPolicy(_policy_config(64, BVMCConfig)).save_pretrained(tmp_path)
     saved = json.loads((tmp_path / "config.json").read_text())

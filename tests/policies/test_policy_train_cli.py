@@ -172,6 +172,7 @@ def test_the_checkpoint_records_the_render_style_of_its_dataset(tiny_dataset: Pa
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     saved = json.loads((out / "checkpoints" / "000001" / "pretrained_model" / "config.json").read_text())
     assert saved["render_style"] == "fetch"
+    assert saved["trained_task"] == "pick_place"  # so an env of another task is refused
 
     cmd = train_command(
         "lerobot-ivmc-train", "vmc", dataset, tmp_path / "refused", 1, "--policy.render_style=fast"

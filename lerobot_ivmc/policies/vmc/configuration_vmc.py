@@ -48,6 +48,9 @@ class VMCConfig(PreTrainedConfig):
         normalization_mapping: normalisation per feature type. ACTION must stay IDENTITY: its last
             dimension is a class label (gripper close / no-op / open), which mean/std would mangle.
         image_key: the camera to use; None picks the only VISUAL input feature.
+        trained_task: the ivmc task of the training demos; `lerobot-ivmc-train` takes it from the dataset's
+            collection record, and the ivmc commands refuse an env of another task. None: not known (plain
+            `lerobot-train`, a dataset of another origin, a checkpoint made before the field).
         render_style: how the training frames were drawn (`lerobot_ivmc.envs.render_styles`);
             `lerobot-ivmc-train` takes it from the dataset's collection record, and the ivmc commands refuse
             an env of another `--env.render_style`. With plain `lerobot-train`, pass the dataset's style.
@@ -118,6 +121,7 @@ class VMCConfig(PreTrainedConfig):
     )
     image_key: str | None = None
     render_style: str = DEFAULT_RENDER_STYLE
+    trained_task: str | None = None
 
     # Architecture. Smaller than GEECO's 8-layer CNN at 256x256 so that 64x64 frames train on 2 CPU cores:
     # 64 -> 32 -> 16 -> 8 -> 4, a 4x4x64 map, concatenated with the tiled state.
