@@ -475,9 +475,21 @@ def _run_collection(cfg: CollectConfig, work: Path, summary: CollectSummary) -> 
 
 
 def push_dataset(root: Path, repo_id: str, private: bool = False, tags: list[str] | None = None) -> None:
-    """Publish a finished dataset with LeRobot's own `LeRobotDataset.push_to_hub`."""
+    """Publish a finished dataset with LeRobot's own `LeRobotDataset.push_to_hub`; a hub that cannot be
+    reached (offline, no token, a network error) ends in one `CollectionError` saying the dataset is kept."""
+    from huggingface_hub.errors import HfHubHTTPError, OfflineModeIsEnabled
+    from requests.exceptions import RequestException
+
     dataset = LeRobotDataset(repo_id, root=root)
-    dataset.push_to_hub(private=private, tags=tags or ["lerobot-ivmc", "fetch", "expert-demonstrations"])
+    try:
+        dataset.push_to_hub(private=private, tags=tags or ["lerobot-ivmc", "fetch", "expert-demonstrations"])
+    except (HfHubHTTPError, OfflineModeIsEnabled, RequestException, OSError) as error:
+        first_line = (str(error).strip().splitlines() or [""])[0]
+        raise staging.CollectionError(
+            f"The dataset in {root} is complete, but pushing it to {repo_id} failed "
+            f"({type(error).__name__}: {first_line}). Nothing is lost: rerun the same command once the hub "
+            "is reachable (and `huggingface-cli login` done); it finds the dataset complete and only pushes."
+        ) from None
 
 
 def collect_demos(cfg: CollectConfig) -> CollectSummary:

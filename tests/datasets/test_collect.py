@@ -25,8 +25,16 @@ from lerobot_ivmc.datasets import (
     rollout,
     staging,
 )
-from lerobot_ivmc.datasets.collect import CollectConfig, _parse_args, _resume_hint, collect_demos, main
+from lerobot_ivmc.datasets.collect import (
+    CollectConfig,
+    _parse_args,
+    _resume_hint,
+    collect_demos,
+    main,
+    push_dataset,
+)
 from lerobot_ivmc.datasets.collection_record import dataset_render_style
+from lerobot_ivmc.datasets.staging import CollectionError
 from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, TASK_ENVS, TASKS, make_task_env
 from lerobot_ivmc.envs.scenes import Scene
 
@@ -393,3 +401,20 @@ def test_draccus_flags_give_the_same_collection_as_the_short_flags(tmp_path, cap
     with pytest.raises(SystemExit):
         _parse_args(["--env.task=push", f"--dataset.root={root}"])
     assert "--dataset.num_episodes=N" in capsys.readouterr().err
+
+
+def test_a_push_that_cannot_reach_the_hub_says_the_dataset_is_kept_and_how_to_push_it(collected):
+    """Offline (or without a token), `--push-to-hub` ends in one message, not chained tracebacks; the
+    finished dataset stays, and the same command later only pushes."""
+    from requests.exceptions import ConnectionError as NoNetwork
+
+    with mock.patch.object(
+        LeRobotDataset, "push_to_hub", side_effect=NoNetwork("Max retries exceeded\nmore")
+    ):
+        with pytest.raises(
+            CollectionError,
+            match=r"is complete, but pushing it to .* failed \(ConnectionError: "
+            r"Max retries exceeded\)\. Nothing is lost: rerun the same command",
+        ):
+            push_dataset(collected.root, collected.repo_id)
+    assert LeRobotDataset(collected.repo_id, root=collected.root).num_episodes == 3
