@@ -17,8 +17,7 @@ from lerobot_ivmc.envs import TASKS, check_demo_episode_steps
 from lerobot_ivmc.policies.vmc.configuration_vmc import VMCConfig
 from lerobot_ivmc.recovery.config import RECOVERY_MODES
 from lerobot_ivmc.recovery.foresight_training import ForesightConfig
-from lerobot_ivmc.recovery.threshold import conformal_min_successes
-from lerobot_ivmc.scripts.pick_threshold import THRESHOLD_METHODS
+from lerobot_ivmc.recovery.threshold import THRESHOLD_METHODS, conformal_min_successes
 
 # Shipped inside the package, so `--preset` works wherever the plugin is installed.
 PRESETS_DIR = Path(__file__).resolve().parent / "presets"

@@ -13,6 +13,8 @@ import numpy as np
 
 THRESHOLD_FILE = "recovery_threshold.json"
 DEFAULT_WINDOW = 20  # the paper: "a sliding window of 20 frames best avoids noisy peaks"
+# How a threshold is picked: the paper's argmax, or split conformal on the successful episodes.
+THRESHOLD_METHODS = ("argmax", "conformal")
 
 
 def check_finite(name: str, values: Sequence[float] | np.ndarray | float) -> np.ndarray:

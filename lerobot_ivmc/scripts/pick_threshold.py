@@ -21,6 +21,7 @@ from lerobot.configs import parser
 from lerobot_ivmc.evaluation.eval_subtasks import IvmcEvalConfig, evaluate
 from lerobot_ivmc.recovery.threshold import (
     DEFAULT_WINDOW,
+    THRESHOLD_METHODS,
     ThresholdRecord,
     argmax_threshold,
     conformal_threshold,
@@ -29,7 +30,6 @@ from lerobot_ivmc.scripts.errors import cli_main
 
 logger = logging.getLogger(__name__)
 
-THRESHOLD_METHODS = ("argmax", "conformal")
 CHECKPOINT_DIR = "pretrained_model"
 
 
