@@ -25,7 +25,7 @@ import torch
 from lerobot.configs import parser
 from lerobot.configs.eval import EvalPipelineConfig
 from lerobot.scripts.lerobot_eval import eval_policy
-from lerobot.utils.constants import OBS_ENV_STATE, OBS_STATE
+from lerobot.utils.constants import OBS_STATE
 from lerobot.utils.random_utils import set_seed
 
 from lerobot_ivmc.datasets.root_lock import EVAL_LOCK_FILE, RootLock
@@ -33,6 +33,7 @@ from lerobot_ivmc.envs import task_env_class
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
 from lerobot_ivmc.envs.vector_env import make_vector_env
 from lerobot_ivmc.evaluation.compatibility import check_policy_matches_env
+from lerobot_ivmc.evaluation.feature_stats import env_state_stats, feature_stats
 from lerobot_ivmc.evaluation.fig3 import plot_success_by_uncertainty, success_by_uncertainty_bins
 from lerobot_ivmc.evaluation.loading import load_policy
 from lerobot_ivmc.evaluation.metrics import aggregate_milestones
@@ -92,24 +93,6 @@ def episode_order(per_env: list[list], n_episodes: int) -> list:
 def collect_episode_milestones(env: gym.vector.VectorEnv, n_episodes: int) -> list[dict[str, bool]]:
     """Milestones of the evaluated episodes in `eval_policy`'s order (batch-major, then sub-env)."""
     return episode_order(env.get_attr("episode_milestones"), n_episodes)
-
-
-def env_state_stats(preprocessor) -> tuple[torch.Tensor, torch.Tensor]:
-    """(mean, std) of `observation.environment_state` from the policy's normaliser step."""
-    return feature_stats(preprocessor, OBS_ENV_STATE)
-
-
-def feature_stats(preprocessor, key: str) -> tuple[torch.Tensor, torch.Tensor]:
-    """(mean, std) of the observation feature `key` from the policy's normaliser step."""
-    for step in preprocessor.steps:
-        stats = getattr(step, "_tensor_stats", None) or {}
-        if key in stats:
-            mean = stats[key]["mean"].float().cpu()
-            return mean, stats[key]["std"].float().cpu() + step.eps
-    raise ValueError(
-        f"The policy's preprocessor has no statistics for {key!r}: the robot's positions are read in its "
-        "units. Use a checkpoint saved by lerobot-train (it stores the processors)."
-    )
 
 
 def check_recovery_request(cfg: IvmcEvalConfig) -> None:
