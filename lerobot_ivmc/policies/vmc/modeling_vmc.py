@@ -281,6 +281,15 @@ class VMCPolicy(PreTrainedPolicy):
         """The layers after the LSTM; Bayesian VMC overrides this."""
         return MLPHead(config.lstm_dim, config.fc_dim, config.num_fc_layers)
 
+    def generate_model_card(self, dataset_repo_id: str, model_type: str, license, tags):  # noqa: A002
+        """LeRobot's model card (what `push_model_to_hub` writes), with the paper, the training task and a
+        bvmc's threshold (`policies/model_card.py`)."""
+        from lerobot_ivmc.policies.model_card import model_card_section
+
+        card = super().generate_model_card(dataset_repo_id, model_type, license, tags)
+        card.text += model_card_section(self.config, getattr(self, "threshold_record", None))
+        return card
+
     def get_optim_params(self) -> list[dict]:
         return [{"params": [p for p in self.parameters() if p.requires_grad]}]
 
