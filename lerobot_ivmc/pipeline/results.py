@@ -197,13 +197,17 @@ def pooled_rescue_table(pooled: list[dict]) -> str:
         "|---|---|---|---|---|---|---|",
     ]
     for entry in pooled:
-        rate = "-" if entry["rescue_rate"] is None else f"{entry['rescue_rate']:.0%}"
         lines.append(
             f"| {METHOD_LABELS[entry['method']]} | {entry['num_fc_layers']} | "
-            f"{', '.join(map(str, entry['train_seeds']))} | {entry['failures']} ({entry['flagged']}) | "
-            f"{entry['rescued']} / {entry['lost']} | {rate} | {entry['exact_p']:.3f} |"
+            f"{', '.join(map(str, entry['train_seeds']))} | {rescue_cells(entry)} | {entry['exact_p']:.3f} |"
         )
     return "\n".join(lines) + "\n"
+
+
+def rescue_cells(record: dict) -> str:
+    """A rescue record's table cells: failures (flagged) | rescued / lost | rescue rate."""
+    rate = "-" if record["rescue_rate"] is None else f"{record['rescue_rate']:.0%}"
+    return f"{record['failures']} ({record['flagged']}) | {record['rescued']} / {record['lost']} | {rate}"
 
 
 def perception_rows(cfg: PipelineConfig, stages: list[Stage], ended: set[str]) -> list[dict]:

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from lerobot_ivmc.envs import TASKS
 from lerobot_ivmc.evaluation.fig3 import most_negative_rho
-from lerobot_ivmc.pipeline.results import finite
+from lerobot_ivmc.pipeline.results import finite, rescue_cells
 
 RHO_GOAL = -0.8
 WALL_TIME_GOAL_S = 3 * 3600.0
@@ -219,11 +219,10 @@ def rescue_table(lines: list[dict]) -> str:
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for line in lines:
-        rate = "-" if line["rescue_rate"] is None else f"{line['rescue_rate']:.0%}"
         table.append(
             f"| {line['task']} | {line['num_fc_layers']} | {line['method']} | "
-            f"{', '.join(str(s) for s in line['train_seeds'])} | {line['failures']} ({line['flagged']}) | "
-            f"{line['rescued']} / {line['lost']} | {rate} | {line['p']:.2g} | {_verdict(line['goal_met'])} |"
+            f"{', '.join(map(str, line['train_seeds']))} | {rescue_cells(line)} | {line['p']:.2g} | "
+            f"{_verdict(line['goal_met'])} |"
         )
     return "\n".join(table)
 

@@ -108,6 +108,8 @@ class WaypointMoves(Manoeuvre):
         steps: most steps of the manoeuvre.
         tolerance: metres from a waypoint that count as reached.
         phase: the phase recorded in the traces.
+        target: the point the recovery event reports (where the object is placed or grasped, or the
+            re-approach ends), (3,).
         reset_memory: hand back with a fresh memory (else with the memory as it is).
         then_carry: once over, the controller carries the object to the anchored goal if it holds it.
     """
@@ -118,11 +120,12 @@ class WaypointMoves(Manoeuvre):
         steps: int,
         tolerance: float,
         phase: int,
+        target: np.ndarray,
         reset_memory: bool,
         then_carry: bool = False,
     ):
         self.waypoints = list(waypoints)
-        self.target = waypoints[-1].position
+        self.target = target
         self.steps_left = steps
         self.tolerance = tolerance
         self.phase = phase
@@ -153,6 +156,12 @@ class WaypointMoves(Manoeuvre):
         return move_towards(grip, target, waypoint.gripper)
 
 
+def rise_towards(grip: np.ndarray, above: np.ndarray) -> np.ndarray:
+    """Straight up from `grip` to the height of `above` (or stay, if already higher): no sweep low over
+    the table on the way there."""
+    return np.array([grip[0], grip[1], max(float(grip[2]), float(above[2]))])
+
+
 def carry_to_goal(
     grip: np.ndarray,
     goal: np.ndarray,
@@ -178,9 +187,7 @@ def carry_to_goal(
         waypoints[-1].hold = 1
         waypoints.append(Waypoint(place, GRIPPER_OPEN, hold=FINGER_STEPS))
         waypoints.append(Waypoint(place + np.array([0.0, 0.0, RELEASE_LIFT]), GRIPPER_OPEN))
-    moves = WaypointMoves(waypoints, steps, tolerance, CARRY_TO_GOAL, reset_memory=release)
-    moves.target = place
-    return moves
+    return WaypointMoves(waypoints, steps, tolerance, CARRY_TO_GOAL, place, reset_memory=release)
 
 
 def regrasp(grip: np.ndarray, obj: np.ndarray, steps: int, tolerance: float) -> WaypointMoves:
@@ -189,22 +196,18 @@ def regrasp(grip: np.ndarray, obj: np.ndarray, steps: int, tolerance: float) -> 
     obj = np.asarray(obj, dtype=np.float64)
     above = obj + np.array([0.0, 0.0, APPROACH_HEIGHT])
     grasp = obj + np.array([0.0, 0.0, GRASP_HEIGHT])
-    rise = np.array([grip[0], grip[1], max(float(grip[2]), float(above[2]))])
     waypoints = [
-        Waypoint(rise, GRIPPER_OPEN),
+        Waypoint(rise_towards(grip, above), GRIPPER_OPEN),
         Waypoint(above, GRIPPER_OPEN),
         Waypoint(grasp, GRIPPER_OPEN),
         Waypoint(grasp, GRIPPER_CLOSE, hold=FINGER_STEPS),
         Waypoint(above, GRIPPER_CLOSE),
     ]
-    moves = WaypointMoves(waypoints, steps, tolerance, REGRASP, reset_memory=True, then_carry=True)
-    moves.target = grasp
-    return moves
+    return WaypointMoves(waypoints, steps, tolerance, REGRASP, grasp, reset_memory=True, then_carry=True)
 
 
 def reapproach(grip: np.ndarray, obj: np.ndarray, steps: int, tolerance: float) -> WaypointMoves:
     """Not holding, without grasping: open, rise, and move above the believed object (a fresh memory)."""
     above = np.asarray(obj, dtype=np.float64) + np.array([0.0, 0.0, APPROACH_HEIGHT])
-    rise = np.array([grip[0], grip[1], max(float(grip[2]), float(above[2]))])
-    waypoints = [Waypoint(rise, GRIPPER_OPEN), Waypoint(above, GRIPPER_OPEN)]
-    return WaypointMoves(waypoints, steps, tolerance, REAPPROACH, reset_memory=True)
+    waypoints = [Waypoint(rise_towards(grip, above), GRIPPER_OPEN), Waypoint(above, GRIPPER_OPEN)]
+    return WaypointMoves(waypoints, steps, tolerance, REAPPROACH, above, reset_memory=True)

@@ -293,7 +293,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
                     self._apply(row, change)
                 if manoeuvre.finished:
                     self.manoeuvres[row] = None
-                    if getattr(manoeuvre, "then_carry", False) and self._holding(row, fingers):
+                    if manoeuvre.then_carry and self._holding(row, fingers):
                         self.manoeuvres[row] = self._carry(row, grip[row])  # a re-grasp that held
 
         keep_fifo = self.recovery.mode == "min_unc"

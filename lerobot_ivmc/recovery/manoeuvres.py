@@ -61,10 +61,12 @@ class MemoryChange:
 
 
 class Manoeuvre:
-    """Base class: `phase` for the traces, `finished` once over."""
+    """Base class: `phase` for the traces, `finished` once over; `then_carry`: once over, the controller
+    carries a held object on (`anchor.py`'s re-grasp)."""
 
     phase: int = NORMAL
     finished: bool = False
+    then_carry: bool = False
 
     def advance(self, grip: np.ndarray) -> MemoryChange | None:
         raise NotImplementedError
