@@ -13,8 +13,10 @@ fires, moves by the policy's beliefs, choosing by what the robot feels:
   lower it and, where the task ends with the object let go (`release`), open the gripper and rise;
 - not holding it, with `grasp`: open, rise above the object where the policy believes it now, descend,
   close, lift and, if the fingers now hold it, carry it to the anchored goal as above;
-- not holding it, without `grasp` (a task whose object must not be picked up, push): open, rise above
-  the believed object.
+- not holding it, without `grasp` (a task whose object is pushed, never lifted): push the object, where
+  the policy believes it now, onto the anchored goal with the closed fingers, in straight legs as the
+  scripted demos push (along x to the goal's row, then along y onto it), each leg planned from where the
+  policy believes the object after the last.
 
 Then the policy takes over again, with a fresh memory (with the object still held and no release, with its
 memory as it is). Only the robot's own senses and the policy's heads are read: the grip point's position
@@ -30,9 +32,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from lerobot_ivmc.envs.fetch_env import GRIPPER_CLOSE, GRIPPER_OPEN
+from lerobot_ivmc.experts.push import APPROACH_GAP, CONTACT_X, CONTACT_Y, HOVER, PUSH_SPEED
 from lerobot_ivmc.recovery.manoeuvres import (
     CARRY_TO_GOAL,
-    REAPPROACH,
+    PUSH_TO_GOAL,
     REGRASP,
     Manoeuvre,
     MemoryChange,
@@ -52,7 +55,7 @@ CARRY_CLEARANCE = 0.05
 PLACE_CLEARANCE = 0.02
 # After a release, the gripper rises this far (metres) with open fingers.
 RELEASE_LIFT = 0.05
-# A re-approach or a re-grasp starts this high above the believed object (metres): the start pose's height.
+# A re-grasp starts this high above the believed object (metres): the start pose's height.
 APPROACH_HEIGHT = 0.1
 # The grip point closes this high above the believed object's centre (metres), as the scripted demos do.
 GRASP_HEIGHT = 0.01
@@ -62,6 +65,11 @@ FINGER_STEPS = 6
 ANCHOR_SPEED = 0.03
 # The largest believed offset of a held object from the grip point that is corrected for (metres).
 MAX_HELD_OFFSET = 0.05
+# The object counts as pushed onto the goal when believed this close to it along x and along y (metres):
+# half the targets' 3 cm radius, above the object head's typical error so that noise is not pushed after.
+PUSH_LEG_MIN = 0.015
+# At most this many push legs in one recovery: the demos' two, and one to correct the drift of the second.
+PUSH_LEGS = 3
 
 
 def is_holding(finger_joints: np.ndarray) -> bool:
@@ -93,11 +101,13 @@ class BeliefAnchor:
 
 @dataclass
 class Waypoint:
-    """A grip-point position to move to with a gripper command, held `hold` steps once reached."""
+    """A grip-point position to move to with a gripper command, at most `speed` metres a step, held `hold`
+    steps once reached."""
 
     position: np.ndarray
     gripper: int
     hold: int = 0
+    speed: float = ANCHOR_SPEED
 
 
 class WaypointMoves(Manoeuvre):
@@ -108,8 +118,8 @@ class WaypointMoves(Manoeuvre):
         steps: most steps of the manoeuvre.
         tolerance: metres from a waypoint that count as reached.
         phase: the phase recorded in the traces.
-        target: the point the recovery event reports (where the object is placed or grasped, or the
-            re-approach ends), (3,).
+        target: the point the recovery event reports (where the object is placed, grasped or pushed to),
+            (3,).
         reset_memory: hand back with a fresh memory (else with the memory as it is).
         then_carry: once over, the controller carries the object to the anchored goal if it holds it.
     """
@@ -152,7 +162,8 @@ class WaypointMoves(Manoeuvre):
             self.held += 1
         offset = waypoint.position - grip
         distance = float(np.linalg.norm(offset))
-        target = waypoint.position if distance <= ANCHOR_SPEED else grip + offset * (ANCHOR_SPEED / distance)
+        speed = waypoint.speed
+        target = waypoint.position if distance <= speed else grip + offset * (speed / distance)
         return move_towards(grip, target, waypoint.gripper)
 
 
@@ -206,8 +217,46 @@ def regrasp(grip: np.ndarray, obj: np.ndarray, steps: int, tolerance: float) -> 
     return WaypointMoves(waypoints, steps, tolerance, REGRASP, grasp, reset_memory=True, then_carry=True)
 
 
-def reapproach(grip: np.ndarray, obj: np.ndarray, steps: int, tolerance: float) -> WaypointMoves:
-    """Not holding, without grasping: open, rise, and move above the believed object (a fresh memory)."""
-    above = np.asarray(obj, dtype=np.float64) + np.array([0.0, 0.0, APPROACH_HEIGHT])
-    waypoints = [Waypoint(rise_towards(grip, above), GRIPPER_OPEN), Waypoint(above, GRIPPER_OPEN)]
-    return WaypointMoves(waypoints, steps, tolerance, REAPPROACH, above, reset_memory=True)
+def push_to_goal(
+    grip: np.ndarray, obj: np.ndarray, goal: np.ndarray, steps: int, tolerance: float, legs: int = PUSH_LEGS
+) -> WaypointMoves:
+    """Not holding, without grasping: one straight push of the believed object toward `goal` with closed
+    fingers, as the scripted demos push (`experts/push.py`): rise, move above the point behind the object,
+    descend, push it until it is level with the goal along the leg's axis, lift. The leg runs along the
+    axis (x or y) on which the object is believed farther from the goal; it may take the steps its path
+    needs at its speeds and `steps` more. With `legs` > 1 the controller, once the leg is over, plans the
+    next one from where the policy then believes the object (`then_push`), until it believes the object
+    on the goal (`on_goal`); then it hands back with a fresh memory."""
+    obj, goal = np.asarray(obj, dtype=np.float64), np.asarray(goal, dtype=np.float64)
+    hover = np.array([0.0, 0.0, HOVER])
+    if on_goal(obj, goal):  # nothing to push as far as the policy believes: clear the object, hand back
+        above = Waypoint(rise_towards(grip, obj + hover), GRIPPER_CLOSE)
+        return WaypointMoves([above], steps, tolerance, PUSH_TO_GOAL, obj.copy(), reset_memory=True)
+    axis = int(np.argmax(np.abs(goal[:2] - obj[:2])))  # the farther axis first
+    contact = (CONTACT_X, CONTACT_Y)[axis]
+    side = 1.0 if goal[axis] >= obj[axis] else -1.0
+    z = float(obj[2])  # the pushing height: the believed object's centre, as the demos push
+    start, end = np.array([obj[0], obj[1], z]), np.array([obj[0], obj[1], z])
+    start[axis] -= side * (contact + APPROACH_GAP)
+    end[axis] = goal[axis] - side * contact
+    waypoints = [
+        Waypoint(rise_towards(grip, start + hover), GRIPPER_CLOSE),
+        Waypoint(start + hover, GRIPPER_CLOSE),
+        Waypoint(start, GRIPPER_CLOSE),
+        Waypoint(end, GRIPPER_CLOSE, speed=PUSH_SPEED),
+        Waypoint(end + hover, GRIPPER_CLOSE),
+    ]
+    pushed_to = np.array([goal[0], goal[1], z])  # where the object should end, after the last leg
+    needed = sum(
+        int(np.ceil(np.linalg.norm(b.position - a.position) / b.speed))
+        for a, b in zip(waypoints, waypoints[1:], strict=False)
+    )
+    needed += int(np.ceil(np.linalg.norm(waypoints[0].position - grip) / ANCHOR_SPEED))
+    moves = WaypointMoves(waypoints, needed + steps, tolerance, PUSH_TO_GOAL, pushed_to, reset_memory=True)
+    moves.then_push = legs - 1
+    return moves
+
+
+def on_goal(obj: np.ndarray, goal: np.ndarray) -> bool:
+    """Whether the object (3,) is believed within `PUSH_LEG_MIN` of the goal along x and along y."""
+    return bool(np.all(np.abs(np.asarray(goal)[:2] - np.asarray(obj)[:2]) < PUSH_LEG_MIN))

@@ -59,13 +59,14 @@ class RecoveryConfig:
             candidate of lowest foreseen uncertainty. "mean" and "random" (ablations of the foresight
             head): the Monte Carlo mean, i.e. the policy acting as it would without recovery, and one
             candidate drawn uniformly.
-        anchor_steps: most steps of one anchor manoeuvre (a carry across the table takes about 20).
+        anchor_steps: most steps of one anchor manoeuvre, or of one leg of a push (a carry across the table
+            takes about 20).
         anchor_release: anchor lets a carried object go at the believed goal and rises (for tasks that end
             with the object resting at its goal); False: it hands back at the goal, still holding, with the
             memory as it is (for tasks that end holding it). None: from the task (False for pick_reach).
         anchor_grasp: anchor grasps an object it does not hold where the policy believes it; False: it
-            only rises above the believed object and hands back with a fresh memory (for tasks whose
-            object is not picked up). None: from the task (False for push).
+            pushes the believed object onto the anchored goal with closed fingers and hands back with a
+            fresh memory (for tasks whose object is not picked up). None: from the task (False for push).
         max_videos: at most this many videos of episodes with a recovery, the uncertainty trace drawn under
             the frames (frames are rendered for every episode until they are found; 0 disables).
     """

@@ -20,7 +20,15 @@ from torch import Tensor
 
 from lerobot_ivmc.envs.fetch_env import ARM_JOINTS, GRIPPER_CLOSE, GRIPPER_NOOP, GRIPPER_OPEN
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy, MCPrediction
-from lerobot_ivmc.recovery.anchor import BeliefAnchor, carry_to_goal, is_holding, reapproach, regrasp
+from lerobot_ivmc.recovery.anchor import (
+    PUSH_LEGS,
+    BeliefAnchor,
+    carry_to_goal,
+    is_holding,
+    on_goal,
+    push_to_goal,
+    regrasp,
+)
 from lerobot_ivmc.recovery.candidates import widen_candidates
 from lerobot_ivmc.recovery.config import RecoveryConfig
 from lerobot_ivmc.recovery.manoeuvres import (
@@ -216,6 +224,11 @@ class IntrospectiveController(BVMCRolloutWrapper):
             cfg.anchor_release,
         )
 
+    def _push(self, row: int, grip: np.ndarray, legs: int) -> Manoeuvre:
+        cfg = self.recovery
+        goal = self.anchors[row].goal
+        return push_to_goal(grip, self.object_beliefs[row], goal, cfg.anchor_steps, cfg.move_tolerance, legs)
+
     def _apply(self, row: int, change: MemoryChange) -> None:
         memory = self.policy._memory
         if memory is None:
@@ -248,7 +261,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
             elif cfg.anchor_grasp:
                 manoeuvre = regrasp(grip, self.object_beliefs[row], cfg.anchor_steps, cfg.move_tolerance)
             else:
-                manoeuvre = reapproach(grip, self.object_beliefs[row], cfg.anchor_steps, cfg.move_tolerance)
+                manoeuvre = self._push(row, grip, PUSH_LEGS)
             event_extra = {"holding": holding, "target": manoeuvre.target.round(4).tolist()}
         elif mode == "min_unc":
             manoeuvre = BacktrackThenFollow(
@@ -295,6 +308,10 @@ class IntrospectiveController(BVMCRolloutWrapper):
                     self.manoeuvres[row] = None
                     if manoeuvre.then_carry and self._holding(row, fingers):
                         self.manoeuvres[row] = self._carry(row, grip[row])  # a re-grasp that held
+                    elif manoeuvre.then_push and not on_goal(
+                        self.object_beliefs[row], self.anchors[row].goal
+                    ):
+                        self.manoeuvres[row] = self._push(row, grip[row], manoeuvre.then_push)
 
         keep_fifo = self.recovery.mode == "min_unc"
         # The live memory, not a copy: `sample` replaces it with new tensors, and `memory_row` copies rows.

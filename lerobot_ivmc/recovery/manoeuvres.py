@@ -17,7 +17,7 @@ from torch import Tensor
 from lerobot_ivmc.envs.fetch_env import GRIPPER_NOOP, GRIPPER_OPEN, POSITION_SCALE
 
 # Phases recorded per step in the traces (the last three: `anchor.py`'s manoeuvres).
-NORMAL, BACKTRACK, FOLLOW_MIN_UNC, RANDOM_MOVES, MOVE_TO_INIT, CARRY_TO_GOAL, REAPPROACH, REGRASP = range(8)
+NORMAL, BACKTRACK, FOLLOW_MIN_UNC, RANDOM_MOVES, MOVE_TO_INIT, CARRY_TO_GOAL, PUSH_TO_GOAL, REGRASP = range(8)
 PHASE_NAMES = (
     "normal",
     "backtrack",
@@ -25,7 +25,7 @@ PHASE_NAMES = (
     "rand",
     "init",
     "carry_to_goal",
-    "reapproach",
+    "push_to_goal",
     "regrasp",
 )
 
@@ -62,11 +62,13 @@ class MemoryChange:
 
 class Manoeuvre:
     """Base class: `phase` for the traces, `finished` once over; `then_carry`: once over, the controller
-    carries a held object on (`anchor.py`'s re-grasp)."""
+    carries a held object on (`anchor.py`'s re-grasp); `then_push`: once over, the controller may push the
+    object this many legs more (`anchor.py`'s push)."""
 
     phase: int = NORMAL
     finished: bool = False
     then_carry: bool = False
+    then_push: int = 0
 
     def advance(self, grip: np.ndarray) -> MemoryChange | None:
         raise NotImplementedError

@@ -1,7 +1,10 @@
-"""The anchor recovery mode: it carries a held object to the goal the policy believed when most certain, or
-re-approaches the object it believed; and no recovery mode reads the simulator's object state."""
+"""The anchor recovery mode: it carries a held object to the goal the policy believed when most certain,
+grasps the object it believes it sees, or pushes it there; and no recovery mode reads the simulator's
+object state."""
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -15,7 +18,6 @@ from lerobot_ivmc.envs.fetch_env import GRIPPER_CLOSE, GRIPPER_OPEN
 from lerobot_ivmc.policies import BVMCConfig
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
 from lerobot_ivmc.recovery.anchor import (
-    APPROACH_HEIGHT,
     FINGER_STEPS,
     GRASP_HEIGHT,
     PLACE_CLEARANCE,
@@ -25,7 +27,7 @@ from lerobot_ivmc.recovery.anchor import (
 )
 from lerobot_ivmc.recovery.config import RECOVERY_MODES, RecoveryConfig
 from lerobot_ivmc.recovery.controller import IntrospectiveController
-from lerobot_ivmc.recovery.manoeuvres import CARRY_TO_GOAL, REAPPROACH, REGRASP
+from lerobot_ivmc.recovery.manoeuvres import CARRY_TO_GOAL, NORMAL, PUSH_TO_GOAL, REGRASP
 
 STATE_IDENTITY = (torch.zeros(9), torch.ones(9))  # the batch carries raw joint positions
 WITH_GOAL_HEAD = {"goal_head": True, "training_mode": "sequence"}
@@ -47,9 +49,11 @@ def test_belief_anchor_averages_the_goals_of_the_least_uncertain_steps() -> None
         BeliefAnchor().goal  # noqa: B018
 
 
-def believing(policy: BVMCPolicy, objects: list[list[float]], goals: list[list[float]]) -> None:
-    """Patch the net's deterministic heads to believe `objects[t]` and `goals[t]` at step t (raw metres, as
-    the identity statistics read them)."""
+def believing(
+    policy: BVMCPolicy, objects: list[list[float]] | Callable[[], np.ndarray], goals: list[list[float]]
+) -> None:
+    """Patch the net's deterministic heads to believe `objects[t]` (or what `objects()` returns) and
+    `goals[t]` at step t (raw metres, as the identity statistics read them)."""
     decode, step = policy.net.decode, {"t": -1}
 
     def scripted(e, stochastic, noise=None, with_goal=False):
@@ -57,8 +61,9 @@ def believing(policy: BVMCPolicy, objects: list[list[float]], goals: list[list[f
         if stochastic or not with_goal:
             return outputs
         step["t"] += 1
-        t = min(step["t"], len(objects) - 1)
-        obj = torch.tensor([objects[t]], dtype=outputs[3].dtype)
+        t = min(step["t"], len(goals) - 1)
+        believed = objects() if callable(objects) else objects[t]
+        obj = torch.tensor(np.array([believed]), dtype=outputs[3].dtype)
         goal = torch.tensor([goals[t]], dtype=outputs[4].dtype)
         return (*outputs[:3], obj, goal)
 
@@ -72,24 +77,37 @@ def anchor_controller(policy: BVMCPolicy, **recovery) -> IntrospectiveController
     )
 
 
-def test_anchor_without_grasp_reapproaches_the_object_believed_now_with_a_fresh_memory() -> None:
-    stream = [0.2] * 3 + [0.05] + [0.2] * 4 + [1.0] + [0.0] * 100  # fires at step 8
+@pytest.mark.parametrize("seed", [0, 5])
+def test_anchor_without_grasp_pushes_the_believed_object_onto_the_anchored_goal(seed: int) -> None:
+    """In push, with exact beliefs (the test reads the scene's positions for the heads), the push legs slide
+    the cube onto the target with closed fingers, planned leg by leg from the beliefs: the episode
+    succeeds."""
+    env = make_task_env("push", image_size=64)
+    observation, _ = env.reset(seed=seed)
+    target = env.target_position.copy()
+    stream = [0.05] * 10 + [1.0] + [0.0] * 300  # fires at step 10, standing still until then
     policy = scripted_policy(stream, move=[0.0, 0.0, 0.0], **WITH_GOAL_HEAD)
-    objects = [[1.30, 0.70, 0.425]] * 8 + [[1.25, 0.75, 0.425]] + [[1.35, 0.65, 0.425]] * 200
-    believing(policy, objects, [[1.3, 0.8, 0.425]] * 200)
-    controller = anchor_controller(policy, anchor_grasp=False)
+    believing(policy, lambda: env.object_position, [list(target)] * 300)
+    controller = anchor_controller(policy, anchor_grasp=False)  # as push's object handling sets it
     changes = recorded_changes(controller)
-    grips, actions = run_episode(controller, steps=40)
+    controller.reset()
+    actions, phases, success = [], [], False
+    for _ in range(150):
+        actions.append(controller.select_action(to_batch(observation))[0].numpy())
+        phases.append(controller.traces[-1].phase[-1][0])
+        observation, _, terminated, _, info = env.step(actions[-1])
+        success = success or bool(info["is_success"])
+        if terminated or (phases[-1] == NORMAL and len(phases) > 11):
+            break
+    env.close()
     event = controller.traces[-1].events[0][0]
-    assert event["step"] == 8 and event["holding"] is False
-    target = np.array([1.25, 0.75, 0.425 + APPROACH_HEIGHT])  # above the object believed at the trigger
-    np.testing.assert_allclose(event["target"], target, atol=1e-4)
-    phases = np.stack(controller.traces[-1].phase)[:, 0]
-    moving = np.flatnonzero(phases == REAPPROACH)
-    assert moving[0] == 8 and all(actions[t][3] == GRIPPER_OPEN for t in moving)
-    end = moving[-1] + 1
-    assert np.linalg.norm(grips[end] - target) <= controller.recovery.move_tolerance
-    assert len(changes) == 1 and changes[0].memory is None  # then a fresh memory
+    assert event["step"] == 10 and event["holding"] is False
+    np.testing.assert_allclose(event["target"][:2], target[:2], atol=1e-4)
+    pushing = [t for t, phase in enumerate(phases) if phase == PUSH_TO_GOAL]
+    assert pushing[0] == 10 and all(actions[t][3] == GRIPPER_CLOSE for t in pushing)
+    assert success, "the push legs did not bring the cube onto the target"
+    # push's targets lie in another row and column: two legs at least, each ending with a fresh memory
+    assert changes and all(change.memory is None for change in changes)
 
 
 @pytest.mark.parametrize("release", [True, False])
@@ -164,7 +182,7 @@ def test_anchor_regrasps_the_object_believed_now_and_carries_it_if_the_fingers_h
 
 
 def test_anchor_fingers_apart_while_opening_are_not_holding() -> None:
-    """Fingers between open and closed after an "open" command are letting go: a re-approach, no carry."""
+    """Fingers between open and closed after an "open" command are letting go: a re-grasp, no carry."""
     stream = [0.2] * 3 + [1.0] + [0.0] * 100
     policy = scripted_policy(stream, move=[0.0, 0.0, 0.0], gripper=GRIPPER_OPEN, **WITH_GOAL_HEAD)
     believing(policy, [[1.3, 0.75, 0.425]] * 200, [[1.2, 0.8, 0.425]] * 200)
