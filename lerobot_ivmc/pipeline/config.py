@@ -132,6 +132,24 @@ class ThresholdStageConfig:
 
 
 @dataclass
+class RegimeConfig:
+    """The data-budget rule (`pipeline/regime.py`): the same rule for every task, for a task BVMC solves at
+    full data (pick_reach at `lite`), chosen on validation scenes before any test run.
+
+    Args:
+        demo_budgets: demo counts to try after the preset's own, largest first (e.g. [1000, 500, 250]);
+            empty (the default): the study trains on all its demos, no rule.
+        failure_range: the [low, high] fraction of validation scenes BVMC should fail.
+        n_episodes, batch_size: validation scenes of each budget's probe (the threshold's first scenes).
+    """
+
+    demo_budgets: list[int] = field(default_factory=list)
+    failure_range: list[float] = field(default_factory=lambda: [0.2, 0.4])
+    n_episodes: int = 50
+    batch_size: int = 10
+
+
+@dataclass
 class PipelineConfig:
     """The whole study for one task.
 
@@ -152,6 +170,7 @@ class PipelineConfig:
         recovery_modes: the BVMC rows: "none" (plain BVMC), "rand", "init", "min_unc" (the paper's) and,
             beyond the paper, "anchor" (a policy trained with the goal head).
         fig3: the Fig. 3 evaluation (BVMC without recovery, many test episodes) and detection metrics.
+        regime: the data-budget rule (off unless `--regime.demo_budgets` lists budgets).
         async_envs: foresight, threshold and evaluation stages step each sub-env in its own process
             (`--eval.use_async_envs`; the same episodes as in one process). Off by default: on 2 cores, 10
             sub-env processes evaluated 100 pick_place episodes in 118.7 s against 107.2 s in one process
@@ -171,6 +190,7 @@ class PipelineConfig:
     eval: EpisodesConfig = field(default_factory=EpisodesConfig)
     recovery_modes: list[str] = field(default_factory=lambda: list(DEFAULT_MODES))
     fig3: EpisodesConfig = field(default_factory=lambda: EpisodesConfig(n_episodes=800))
+    regime: RegimeConfig = field(default_factory=RegimeConfig)
     async_envs: bool = False
 
     def __post_init__(self) -> None:
@@ -214,6 +234,7 @@ class PipelineConfig:
                 f"got {self.train.extra_seeds}."
             )
         self.validate_stage_values()
+        self.validate_regime()
         for name, value in (
             ("train.steps", self.train.steps),
             ("train.batch_size", self.train.batch_size),
@@ -231,6 +252,26 @@ class PipelineConfig:
         ):
             if value <= 0:
                 raise ValueError(f"--{name} must be positive, got {value}.")
+
+    def validate_regime(self) -> None:
+        """Refuse budgets and ranges the data-budget rule cannot use."""
+        r = self.regime
+        if len(r.failure_range) != 2 or not 0 <= r.failure_range[0] < r.failure_range[1] <= 1:
+            raise ValueError(
+                f"--regime.failure_range must be [low,high] with 0 <= low < high <= 1, got {r.failure_range}."
+            )
+        if not r.demo_budgets:
+            return
+        budgets = [self.collect.dataset.num_episodes, *r.demo_budgets]
+        if any(b <= 0 for b in budgets) or any(a <= b for a, b in zip(budgets, budgets[1:], strict=False)):
+            raise ValueError(
+                "--regime.demo_budgets must be positive and decreasing, each below "
+                f"--collect.dataset.num_episodes={budgets[0]}, got {r.demo_budgets}."
+            )
+        if not 0 < r.batch_size <= r.n_episodes:
+            raise ValueError(
+                f"--regime.batch_size must be in [1, --regime.n_episodes={r.n_episodes}], got {r.batch_size}."
+            )
 
     def validate_stage_values(self) -> None:
         """Refuse values a later stage would refuse, before hours of earlier stages are spent."""

@@ -400,15 +400,16 @@ def eval_stage(
     seed: str,
     mode: str | None,
     source: str,
+    split: str = "test",
 ) -> Stage:
-    """`lerobot-ivmc-eval` on test scenes (with `--recovery.mode` for the BVMC rows)."""
+    """`lerobot-ivmc-eval` on `split` scenes (with `--recovery.mode` for the BVMC rows)."""
     return Stage(
         name,
         [
             "lerobot-ivmc-eval",
             f"--policy.path={checkpoint}",
             *env_flags,
-            "--env.split=test",
+            f"--env.split={split}",
             f"--eval.n_episodes={n_episodes}",
             f"--eval.batch_size={batch_size}",
             seed,

@@ -8,6 +8,8 @@ refused). Rerun the same command to resume: finished stages are skipped, a kille
 it can be (demo collection, a training from its last checkpoint) or redone, and a changed stage reruns with
 everything after it. Results: `<output_dir>/results/` (`<task>.json`, `table.md`, plots, videos), written as
 each #fc finishes (and as each extra training seed's evaluations do, `--train.extra_seeds=[2000]`).
+With `--regime.demo_budgets=[...]` the study first chooses its number of demos by the data-budget rule
+(`lerobot_ivmc/pipeline/regime.py`) and runs in `<output_dir>/demos<n>/`.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import time
 import draccus
 
 from lerobot_ivmc.pipeline.config import PRESETS_DIR, PipelineConfig
+from lerobot_ivmc.pipeline.regime import run_regime
 from lerobot_ivmc.pipeline.results import RESULTS_DIR, adds_results, write_results
 from lerobot_ivmc.pipeline.runner import PipelineError, StageResult, claim_root, run_stages, study_lock
 from lerobot_ivmc.pipeline.stages import build_stages
@@ -81,7 +84,10 @@ def main(argv: list[str] | None = None) -> None:
     def run() -> None:
         cfg = parse_config(argv)
         try:
-            run_pipeline(cfg)
+            if cfg.regime.demo_budgets:
+                run_regime(cfg, run_pipeline)
+            else:
+                run_pipeline(cfg)
         except PipelineError as error:
             print(f"error: {error}", file=sys.stderr)
             sys.exit(1)

@@ -1,0 +1,157 @@
+"""The data-budget rule: the same for every task, it puts a study where BVMC fails often enough for
+recovery to be measured (a task solved at full data, such as pick_reach at `lite`, has nothing to recover).
+
+    lerobot-ivmc-pipeline --task=pick_reach --preset=lite --regime.demo_budgets=[1000,500,250]
+
+Budgets are tried from the largest, the preset's demo count (`--collect.dataset.num_episodes`), then each
+of `--regime.demo_budgets` in turn. A budget's probe is the start of an ordinary study in
+`<output_dir>/demos<n>/` with that many demos (the collector records attempts in a fixed order, so they
+are the first n demos of every larger budget): the collection, the main seed's BVMC training of the first
+#fc, and BVMC without recovery on `--regime.n_episodes` validation scenes (the threshold's first scenes;
+no test scene is touched). The rule (`choose_budget`):
+
+- the first budget whose validation failure rate lies in `--regime.failure_range` (default 20-40%) is
+  chosen;
+- a budget that fails more often than the range stops the search: of it and the budget tried before it,
+  the one whose rate is nearer the range is chosen (a tie: the larger budget);
+- when every budget fails less often than the range, the smallest is chosen, and the record says the
+  range was not reached.
+
+Then the chosen budget's study runs to the end (its probe's stages are reused, not redone), with every
+training seed, and `<output_dir>/regime.json` (also copied into its results) records each probe's
+failures and the choice.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, replace
+
+from lerobot_ivmc.pipeline.config import PipelineConfig
+from lerobot_ivmc.pipeline.results import RESULTS_DIR
+from lerobot_ivmc.pipeline.runner import claim_root, run_stages, study_lock, write_json_atomic
+from lerobot_ivmc.pipeline.stages import Stage, build_stages, eval_stage, find_stage
+
+REGIME_FILE = "regime.json"
+PROBE_STAGE = "regime_val"
+
+
+@dataclass
+class BudgetProbe:
+    """One budget's validation run: BVMC without recovery, trained on `demos` demos."""
+
+    demos: int
+    episodes: int
+    failures: int
+
+    @property
+    def failure_rate(self) -> float:
+        return self.failures / self.episodes
+
+
+def distance_to_range(rate: float, low: float, high: float) -> float:
+    """How far a failure rate lies outside [low, high] (0 inside)."""
+    return round(max(low - rate, rate - high, 0.0), 9)  # (so that equal distances compare equal)
+
+
+def choose_budget(probes: list[BudgetProbe], low: float, high: float, exhausted: bool) -> int | None:
+    """The rule, on the probes so far (largest budget first): the chosen number of demos, or None when the
+    next smaller budget must be probed. `exhausted`: no smaller budget is left to probe."""
+    if not probes:
+        raise ValueError("choose_budget needs at least one probe.")
+    last = probes[-1]
+    if low <= last.failure_rate <= high:
+        return last.demos
+    if last.failure_rate > high:
+        candidates = probes[-2:]  # the overshooting budget and the one before it (larger first)
+        return min(candidates, key=lambda p: distance_to_range(p.failure_rate, low, high)).demos
+    return last.demos if exhausted else None
+
+
+def budgets(cfg: PipelineConfig) -> list[int]:
+    """The demo counts to try, largest first: the preset's, then `--regime.demo_budgets`."""
+    return [cfg.collect.dataset.num_episodes, *cfg.regime.demo_budgets]
+
+
+def budget_config(cfg: PipelineConfig, demos: int) -> PipelineConfig:
+    """The study of `demos` demos, in `<output_dir>/demos<n>`, without the rule."""
+    collect = replace(cfg.collect, dataset=replace(cfg.collect.dataset, num_episodes=demos))
+    regime = replace(cfg.regime, demo_budgets=[])
+    return replace(cfg, collect=collect, regime=regime, output_dir=cfg.root / f"demos{demos}")
+
+
+def probe_stages(cfg: PipelineConfig) -> list[Stage]:
+    """A budget study's probe (`cfg` from `budget_config`): its collection, the main seed's BVMC training
+    of the first #fc, and that BVMC without recovery on the first validation scenes."""
+    stages = build_stages(cfg)
+    fc = cfg.train.num_fc_layers[0]
+    training = find_stage(stages, f"train_bvmc_fc{fc}")
+    flags = find_stage(stages, f"eval_vmc_fc{fc}").argv
+    env_flags = [flag for flag in flags if flag.startswith(("--env.", "--eval.use_async", "--max_episodes"))]
+    env_flags = [flag for flag in env_flags if not flag.startswith("--env.split=")]
+    out = cfg.root.resolve() / PROBE_STAGE
+    r = cfg.regime
+    probe = eval_stage(
+        PROBE_STAGE,
+        training.output / "checkpoints" / "last" / "pretrained_model",
+        out,
+        env_flags,
+        r.n_episodes,
+        r.batch_size,
+        f"--seed={cfg.seed}",
+        None,
+        training.name,
+        split="val",
+    )
+    return [find_stage(stages, "collect"), training, probe]
+
+
+def read_probe(stage: Stage, demos: int) -> BudgetProbe:
+    """The failures of a finished probe stage, from its `eval_info.json`."""
+    info = json.loads((stage.output / "eval_info.json").read_text())
+    successes = [bool(episode["success"]) for episode in info["per_episode"]]
+    return BudgetProbe(demos, len(successes), successes.count(False))
+
+
+def run_regime(cfg: PipelineConfig, run_study: Callable[[PipelineConfig], dict], log=print) -> dict:
+    """Probe the budgets by the rule, then run the chosen budget's whole study with `run_study`; return its
+    results JSON (with the rule's record under `regime`)."""
+    root = cfg.root
+    claim_root(root, {"task": cfg.task, "preset": cfg.preset, "regime": True})
+    low, high = cfg.regime.failure_range
+    tried = budgets(cfg)
+    probes: list[BudgetProbe] = []
+    with study_lock(root):
+        for index, demos in enumerate(tried):
+            study = budget_config(cfg, demos)
+            claim_root(study.root, {"task": cfg.task, "preset": cfg.preset})
+            log(f"Regime: probing {demos} demos in {study.root}")
+            stages = probe_stages(study)
+            with study_lock(study.root):
+                run_stages(study.root, stages, log)
+            probes.append(read_probe(stages[-1], demos))
+            log(
+                f"Regime: {demos} demos, BVMC fails {probes[-1].failures} of {probes[-1].episodes} val scenes"
+            )
+            chosen = choose_budget(probes, low, high, exhausted=index == len(tried) - 1)
+            if chosen is not None:
+                break
+        record = {
+            "rule": "first budget with validation failure rate in the range; past it, the nearer of the "
+            "last two; none reached, the smallest",
+            "failure_range": [low, high],
+            "validation_episodes": cfg.regime.n_episodes,
+            "probes": [{**asdict(p), "failure_rate": p.failure_rate} for p in probes],
+            "chosen_demos": chosen,
+            "range_reached": any(low <= p.failure_rate <= high for p in probes if p.demos == chosen),
+            "study": str(budget_config(cfg, chosen).root),
+        }
+        write_json_atomic(root / REGIME_FILE, record)
+        rates = ", ".join(f"{p.demos}: {p.failure_rate:.0%}" for p in probes)
+        log(f"Regime: {chosen} demos chosen (validation failure rate by demos: {rates})")
+        study = budget_config(cfg, chosen)
+        results = run_study(study)
+    shutil.copyfile(root / REGIME_FILE, study.root / RESULTS_DIR / REGIME_FILE)
+    return {**results, "regime": record}
