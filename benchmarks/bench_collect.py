@@ -1,38 +1,62 @@
 """Throughput of `lerobot-ivmc-collect`: demos per minute and frames per second, with 1 and 2 workers.
 
-Each run records `--num-episodes` expert demos into a fresh temporary LeRobotDataset, end to end (worker
-start-up, rendering, staging, LeRobot's writer, finalize and publish), and projects the time for 1,000
-demos linearly from it. The projection carries the start-up cost over, so it slightly overestimates.
-The goal on a 2-core machine: 1,000 push demos at 64x64 in under 15 minutes.
+Each run records `--dataset.num_episodes` expert demos into a fresh temporary LeRobotDataset, end to end
+(worker start-up, rendering, staging, LeRobot's writer, finalize and publish), and projects the time for
+1,000 demos linearly from it. The projection carries the start-up cost over, so it slightly overestimates.
+The goal on a 2-core machine: 1,000 push demos at 64x64 in under 15 minutes. The flags are the collector's
+own (`--env.*`, `--dataset.*`; the root is a temporary folder) plus `--workers`, the worker counts to time:
 
-    python benchmarks/bench_collect.py --task push --num-episodes 40 --image-size 64 --workers 1 2
+    python benchmarks/bench_collect.py --env.task=push --dataset.num_episodes=40 --env.image_size=64 \\
+        --workers=[1,2]
 """
 
 from __future__ import annotations
 
-import argparse
+import dataclasses
 import logging
 import tempfile
+from dataclasses import dataclass, field
 from pathlib import Path
 
-from lerobot_ivmc.datasets.collect import CollectConfig, collect_demos
-from lerobot_ivmc.envs import TASKS
+import draccus
+
+from lerobot_ivmc.datasets.collect import collect_demos
+from lerobot_ivmc.datasets.record_config import DemoDatasetConfig, DemoEnvConfig, RecordDemosConfig
 
 GOAL_EPISODES, GOAL_MINUTES = 1000, 15.0
 
 
-def bench(task: str, num_episodes: int, image_size: int, num_workers: int) -> dict[str, float]:
-    """Collect `num_episodes` demos into a temporary folder; return rates and the projected time."""
+@dataclass
+class BenchCollectConfig:
+    """What to collect, as `lerobot-ivmc-collect`'s `--env.*` and `--dataset.*`, and with how many workers.
+
+    Args:
+        env: scenes and camera (default: push at 64x64).
+        dataset: how many demos each run records (default 40); `root` is a temporary folder.
+        workers: the `--num_workers` values to time, one run each.
+        seed: base seed of the attempts' scene seeds.
+    """
+
+    env: DemoEnvConfig = field(default_factory=DemoEnvConfig)
+    dataset: DemoDatasetConfig = field(default_factory=DemoDatasetConfig)
+    workers: list[int] = field(default_factory=lambda: [1, 2])
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        # The benchmark's defaults, where the collector has none (set here: draccus builds a nested section
+        # a flag names from its class's defaults, not from a default factory).
+        self.env.task = self.env.task or "push"
+        self.dataset.num_episodes = self.dataset.num_episodes or 40
+
+
+def bench(cfg: BenchCollectConfig, num_workers: int) -> dict[str, float]:
+    """Collect the demos of `cfg` with `num_workers` in a temporary folder; return rates and projection."""
     with tempfile.TemporaryDirectory() as tmp:
-        cfg = CollectConfig(
-            task=task,
-            num_episodes=num_episodes,
-            root=Path(tmp) / f"ivmc_{task}",
-            image_size=image_size,
-            num_workers=num_workers,
-            progress=False,
+        dataset = dataclasses.replace(cfg.dataset, root=Path(tmp) / f"ivmc_{cfg.env.task}")
+        record = RecordDemosConfig(
+            env=cfg.env, dataset=dataset, num_workers=num_workers, seed=cfg.seed, progress=False
         )
-        summary = collect_demos(cfg)
+        summary = collect_demos(record.to_collect_config())
     elapsed = summary.elapsed_s
     return {
         "elapsed_s": elapsed,
@@ -44,19 +68,15 @@ def bench(task: str, num_episodes: int, image_size: int, num_workers: int) -> di
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--task", default="push", choices=TASKS)
-    parser.add_argument("--num-episodes", type=int, default=40)
-    parser.add_argument("--image-size", type=int, default=64)
-    parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
-    args = parser.parse_args()
+    cfg = draccus.parse(config_class=BenchCollectConfig)
     logging.basicConfig(level=logging.WARNING)
 
-    print(f"{args.task}, {args.num_episodes} demos of 100 frames at {args.image_size}x{args.image_size}")
+    size, steps = cfg.env.image_size, cfg.dataset.episode_steps
+    print(f"{cfg.env.task}, {cfg.dataset.num_episodes} demos of {steps} frames at {size}x{size}")
     header = ("workers", "time s", "demos/min", "frames/s", "1000 demos (min)", "goal")
     print(" ".join(f"{name:>{width}}" for name, width in zip(header, (7, 8, 10, 9, 17, 5), strict=True)))
-    for workers in args.workers:
-        result = bench(args.task, args.num_episodes, args.image_size, workers)
+    for workers in cfg.workers:
+        result = bench(cfg, workers)
         ok = "ok" if result["projected_1000_min"] < GOAL_MINUTES else "MISS"
         print(
             f"{workers:>7} {result['elapsed_s']:>8.1f} {result['demos_per_min']:>10.1f} "

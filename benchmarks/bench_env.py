@@ -16,7 +16,7 @@ import numpy as np
 
 from lerobot_ivmc.envs import TASKS, make_task_env
 from lerobot_ivmc.envs.render_styles import RENDER_STYLES
-from lerobot_ivmc.scripts.run_experts import ExpertRunConfig, run_task
+from lerobot_ivmc.experts.expert_runs import ExpertRunConfig, run_task
 
 
 def steps_per_second(

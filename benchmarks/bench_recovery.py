@@ -73,7 +73,7 @@ def step_latency(rounds: int, calls: int, image_size: int) -> dict[str, tuple[fl
 
 
 def episodes_per_minute(policy_path: str, task: str, episodes: int, batch_size: int) -> dict[str, float]:
-    from lerobot_ivmc.evaluation.eval_subtasks import eval_main
+    from lerobot_ivmc.scripts.lerobot_ivmc_eval import eval_main
 
     rates = {}
     with tempfile.TemporaryDirectory() as out:

@@ -34,8 +34,8 @@ from lerobot.datasets.sampler import EpisodeAwareSampler
 from lerobot.policies.factory import make_policy, make_pre_post_processors
 
 from lerobot_ivmc.datasets.frame_cache import FrameCache
+from lerobot_ivmc.hardware import cpu_has_native_bf16
 from lerobot_ivmc.policies import BVMCConfig
-from lerobot_ivmc.policies.vmc.modeling_vmc import cpu_has_native_bf16
 
 
 @dataclass

@@ -9,5 +9,5 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 venv=$(bash scripts/setup_env.sh)
 export MUJOCO_GL=${MUJOCO_GL:-egl}
 workers=${IVMC_TEST_WORKERS:-$(nproc)}
-"$venv/bin/ruff" check lerobot_ivmc lerobot_policy_ivmc tests benchmarks
+"$venv/bin/ruff" check lerobot_ivmc lerobot_policy_ivmc tests benchmarks diagnostics
 "$venv/bin/python" -m pytest -q -n "$workers" --dist worksteal --durations=15 "$@"

@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from lerobot_ivmc.datasets.collect import CollectConfig
+from lerobot_ivmc.datasets.collect_config import CollectConfig
 from lerobot_ivmc.envs import DEMO_EPISODE_STEPS
 from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE
 
@@ -74,6 +74,8 @@ class RecordDemosConfig:
         action_noise: std of the noise on the executed delta-EE command, in action units (DART); the
             recorded label stays the expert's.
         progress: show a progress bar.
+
+    The short flags of earlier versions (`--task`, `--num-episodes`, ...) are refused, naming these.
     """
 
     env: DemoEnvConfig = field(default_factory=DemoEnvConfig)
@@ -109,3 +111,41 @@ class RecordDemosConfig:
             private=self.dataset.private,
             progress=self.progress,
         )
+
+
+# The short flags of the collector's earlier command line and the draccus flag that replaced each; a switch
+# (no value) maps to the whole new flag.
+SHORT_FLAGS = {
+    "--task": "--env.task",
+    "--split": "--env.split",
+    "--image-size": "--env.image_size",
+    "--render-style": "--env.render_style",
+    "--num-episodes": "--dataset.num_episodes",
+    "--root": "--dataset.root",
+    "--repo-id": "--dataset.repo_id",
+    "--episode-steps": "--dataset.episode_steps",
+    "--num-workers": "--num_workers",
+    "--action-noise": "--action_noise",
+}
+SHORT_SWITCHES = {
+    "--video": "--dataset.video=true",
+    "--push-to-hub": "--dataset.push_to_hub=true",
+    "--private": "--dataset.private=true",
+    "--no-progress": "--progress=false",
+}
+
+
+def short_flag_replacements(argv: list[str]) -> list[tuple[str, str]]:
+    """(new flag, old flag as given) for each short flag of earlier versions in `argv`, in order."""
+    found = []
+    for i, arg in enumerate(argv):
+        name, has_value, value = arg.partition("=")
+        if name in SHORT_SWITCHES:
+            found.append((SHORT_SWITCHES[name], arg))
+        elif name in SHORT_FLAGS:
+            if not has_value:  # `--task push`: the value is the next argument, if it is not a flag
+                following = argv[i + 1] if i + 1 < len(argv) else ""
+                value = "" if following.startswith("--") else following
+                arg = f"{name} {value}".rstrip()
+            found.append((f"{SHORT_FLAGS[name]}={value or '...'}", arg))
+    return found

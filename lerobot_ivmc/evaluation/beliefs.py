@@ -16,7 +16,7 @@ from torch import Tensor
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
 from lerobot_ivmc.evaluation.feature_stats import env_state_stats
 from lerobot_ivmc.evaluation.loading import LoadedPolicy
-from lerobot_ivmc.policies.vmc.modeling_vmc import deterministic_action
+from lerobot_ivmc.policies.vmc.network import deterministic_action
 from lerobot_ivmc.recovery.foresight_ranking import batch_observations
 
 GRIP, OBJECT = slice(0, 3), slice(3, 6)

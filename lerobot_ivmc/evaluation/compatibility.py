@@ -6,7 +6,7 @@ as LeRobot derives them (`env_to_policy_features`), and the render style of its 
 env's, before the first step: a 64-pixel policy on
 `--env.image_size=32` would otherwise fail with a tensor-size error deep inside the CNN, and a pixel policy
 on `--env.obs_type=state` with a `KeyError`. The error is a `ValueError`, so the plugin's CLIs end on it
-with one line (`lerobot_ivmc.scripts.errors.run_cli`).
+with one line (`lerobot_ivmc.cli.run_cli`).
 """
 
 from __future__ import annotations

@@ -1,18 +1,7 @@
-"""`lerobot-ivmc-eval`: `lerobot-eval` for the ivmc tasks, with subtask milestones and failure recovery.
-
-It parses the same arguments as `lerobot-eval` plus `--recovery.*` and runs LeRobot's own `eval_policy`
-(rollout, seeding, videos). A wrapper on each sub-env keeps the episode's milestones, added to
-`eval_info.json` as `subtasks` (per episode) and `aggregated_subtasks` (rates with standard errors). A
-`bvmc` policy runs inside `IntrospectiveController` (Algorithm 1), which also records per-step
-uncertainty traces (`uncertainty_traces.npz`), the recovery events and u of every episode, the paper's
-Fig. 3 (`uncertainty_vs_success.png`) and videos of recoveries (`recovery_videos/`, made from the camera
-images the policy acted on, so no frame is rendered for them). `--eval.use_async_envs=true` steps each
-sub-env in its own process (per-episode results are the same as in one process); `--max_episodes_rendered`
-sets how many episodes LeRobot renders into `videos/` (10, as `lerobot-eval`; 0 saves their rendering).
-
-    lerobot-ivmc-eval --policy.path=<bvmc checkpoint with foresight and threshold> --env.type=ivmc \\
-        --env.task=pick_place --eval.n_episodes=100 --eval.batch_size=10 --seed=0 --recovery.mode=min_unc
-"""
+"""The evaluation behind `lerobot-ivmc-eval` (`scripts/lerobot_ivmc_eval.py`): LeRobot's own `eval_policy`
+(rollout, seeding, videos) on ivmc envs whose sub-envs record the episodes' milestones, a `bvmc` policy
+inside `IntrospectiveController` (Algorithm 1), and what the command writes: `eval_info.json` with
+`subtasks` and `aggregated_subtasks`, the uncertainty traces, Fig. 3 and the recovery videos."""
 
 import json
 import logging
@@ -22,19 +11,18 @@ from pprint import pformat
 
 import gymnasium as gym
 import torch
-from lerobot.configs import parser
 from lerobot.configs.eval import EvalPipelineConfig
 from lerobot.scripts.lerobot_eval import eval_policy
 from lerobot.utils.constants import OBS_STATE
 from lerobot.utils.random_utils import set_seed
 
+from lerobot_ivmc.constants import EVAL_INFO_FILE
 from lerobot_ivmc.datasets.root_lock import EVAL_LOCK_FILE, RootLock
 from lerobot_ivmc.envs import task_env_class
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
 from lerobot_ivmc.envs.vector_env import make_vector_env
 from lerobot_ivmc.evaluation.compatibility import check_policy_matches_env
 from lerobot_ivmc.evaluation.feature_stats import env_state_stats, feature_stats
-from lerobot_ivmc.evaluation.fig3 import plot_success_by_uncertainty, success_by_uncertainty_bins
 from lerobot_ivmc.evaluation.loading import load_policy
 from lerobot_ivmc.evaluation.metrics import aggregate_milestones
 from lerobot_ivmc.evaluation.milestone_recorder import MilestoneRecorder
@@ -43,15 +31,17 @@ from lerobot_ivmc.evaluation.recovery_videos import (
     recovery_phase_summary,
     write_recovery_video,
 )
+from lerobot_ivmc.evaluation.success_by_uncertainty import (
+    plot_success_by_uncertainty,
+    success_by_uncertainty_bins,
+)
 from lerobot_ivmc.evaluation.traces import TRACES_FILE, episode_traces, save_traces
 from lerobot_ivmc.recovery.config import RecoveryConfig
 from lerobot_ivmc.recovery.controller import IntrospectiveController
 from lerobot_ivmc.recovery.threshold import ThresholdRecord, check_finite, resolve_threshold
-from lerobot_ivmc.scripts.errors import cli_main
 
 logger = logging.getLogger(__name__)
 
-EVAL_INFO_FILE = "eval_info.json"
 FIG3_FILE = "uncertainty_vs_success.png"
 
 
@@ -264,28 +254,3 @@ def write_videos(
         write_recovery_video(path, frames[:length], episode, float(threshold), cfg.env.fps)
         paths.append(str(path))
     return paths
-
-
-@parser.wrap()
-def eval_main(cfg: IvmcEvalConfig) -> dict:
-    info = evaluate(cfg)
-    print(f"{cfg.env.task}: {cfg.eval.n_episodes} episodes on {cfg.env.split} scenes (seeds {cfg.seed}..)")
-    for name, rate in info["aggregated_subtasks"].items():
-        print(f"  {name:<6} {rate['pc']:6.2f} +- {rate['stderr']:.2f} %")
-    if "recovery" in info:
-        rec = info["recovery"]
-        print(
-            f"  recovery={rec['mode']} threshold={rec['threshold']} ({rec['threshold_source']}), "
-            f"{rec['num_recoveries']} recoveries in {rec['episodes_with_recovery']} episodes; "
-            f"Spearman rho (Fig. 3) {info['uncertainty_vs_success']['spearman_rho']:.2f}"
-        )
-    print(f"Eval info: {Path(cfg.output_dir) / EVAL_INFO_FILE}")
-    return info
-
-
-def main() -> None:
-    cli_main(eval_main)
-
-
-if __name__ == "__main__":
-    main()

@@ -1,29 +1,18 @@
-"""`lerobot-ivmc-inspect`: one episode step by step, the world next to what the policy believes.
+"""One episode step by step, the world next to what the policy believes (the library of
+`lerobot-ivmc-inspect`, `scripts/lerobot_ivmc_inspect.py`): per step the true grip, object and target
+positions, the grasp, the executed action, the uncertainty and the network's own position estimates."""
 
-Why did an episode fail? Runs a vmc or bvmc checkpoint on one scene (the scene of `lerobot-ivmc-eval`'s
-episode with that seed) and records per step the true grip, object and target positions, the grasp, the
-executed action, the Bayesian VMC's uncertainty, and the network's own position estimates: its auxiliary
-end-effector and object predictions and, for a net trained with `goal_head`, where it believes the object
-must end up. Writes `inspect_seed<seed>.json` and a plot of true against believed positions.
-
-    lerobot-ivmc-inspect --policy.path=<checkpoint> --env.type=ivmc --env.task=pick_place \\
-        --env.split=test --episode_seed=0 --output_dir=outputs/inspect
-"""
-
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import torch
-from lerobot.configs import parser
 from lerobot.configs.eval import EvalPipelineConfig
 
 from lerobot_ivmc.envs import make_task_env_from_config
 from lerobot_ivmc.evaluation.beliefs import BeliefReader, check_network_request
 from lerobot_ivmc.evaluation.compatibility import check_policy_matches_env
 from lerobot_ivmc.evaluation.loading import load_policy
-from lerobot_ivmc.scripts.errors import cli_main
 
 AXES = "xyz"
 
@@ -158,22 +147,3 @@ def plot_episode(result: dict, path: Path) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
-
-
-@parser.wrap()
-def inspect_main(cfg: InspectConfig) -> dict:
-    result = inspect_episode(cfg)
-    record_path, plot_path = output_paths(cfg)
-    record_path.parent.mkdir(parents=True, exist_ok=True)
-    record_path.write_text(json.dumps(result, indent=1))
-    plot_episode(result, plot_path)
-    print(f"{result['steps']} steps, milestones {result['milestones']}; wrote {record_path} and {plot_path}")
-    return result
-
-
-def main() -> None:
-    cli_main(inspect_main)
-
-
-if __name__ == "__main__":
-    main()

@@ -1,33 +1,14 @@
-"""`lerobot-ivmc-perception`: did a trained policy learn where the object is? A check in seconds, run
-before hours of foresight distillation and evaluations are spent on a policy that did not.
+"""Did a trained policy learn where the object is? The measurement behind `lerobot-ivmc-perception`
+(`scripts/lerobot_ivmc_perception.py`): the median error of the network's object estimate over the first
+steps of validation scenes, watching the expert and acting, and the verdict against a limit."""
 
-A vmc or bvmc network predicts the object's position with an auxiliary head. On each of `--n_scenes`
-scenes (seeds `seed`, `seed + 1`, ... of `--env.split`) it measures, over the episode's first `--steps`
-steps, how far that estimate is from the true position (cm), twice: watching the scripted expert act (the
-demos' distribution) and acting itself (closed loop, what the evaluations see). The scene's error is the
-median over its steps, the policy's the median over scenes.
-
-Some training runs never learn to find the object on their own (docs/RESULTS.md: a second training seed of
-the lite recipe, acting error 12.5-15.5 cm against 0.9-2.0 for the runs that learned; it placed in 2-9% of
-test scenes). With `--max_object_error_cm` > 0 the record says whether the acting error stays within it,
-and the command exits 1 when it does not (after writing its record; `--fail_above_limit=false` only records
-the verdict), so a pipeline stops there.
-
-    lerobot-ivmc-perception --policy.path=<checkpoint> --env.type=ivmc --env.task=pick_place \\
-        --env.split=val --n_scenes=20 --seed=0 --output_dir=outputs/perception
-"""
-
-# No `from __future__ import annotations`: LeRobot's parser.wrap reads the config class from the annotation.
-import json
 import statistics
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
 import numpy as np
 import torch
-from lerobot.configs import parser
 from lerobot.configs.eval import EvalPipelineConfig
 
 from lerobot_ivmc.envs import make_task_env_from_config
@@ -36,7 +17,6 @@ from lerobot_ivmc.evaluation.beliefs import BeliefReader, check_network_request
 from lerobot_ivmc.evaluation.compatibility import check_policy_matches_env
 from lerobot_ivmc.evaluation.loading import load_policy
 from lerobot_ivmc.experts import WaypointExpert, make_expert
-from lerobot_ivmc.scripts.errors import cli_main
 
 RECORD_FILE = "perception.json"
 DRIVERS = ("watching_expert", "acting")
@@ -163,28 +143,3 @@ def failure_message(record: dict, path: Path) -> str:
         "longer (lerobot-ivmc-pipeline: --train.seed=..., --train.steps=...), or go on with it by lifting "
         "the limit (0 only reports; --perception.max_object_error_cm=0 in the pipeline)."
     )
-
-
-@parser.wrap()
-def perception_main(cfg: PerceptionCheckConfig) -> dict:
-    record = check_perception(cfg)
-    out = Path(cfg.output_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / RECORD_FILE).write_text(json.dumps(record, indent=1))
-    for driver in DRIVERS:
-        m = record[driver]
-        print(
-            f"{driver}: object {m['object_cm']:.2f} cm, grip {m['grip_cm']:.2f} cm (median of scene medians)"
-        )
-    print(f"wrote {out / RECORD_FILE}")
-    if record["passed"] is False and cfg.fail_above_limit:
-        sys.exit(failure_message(record, out / RECORD_FILE))
-    return record
-
-
-def main() -> None:
-    cli_main(perception_main)
-
-
-if __name__ == "__main__":
-    main()

@@ -29,10 +29,19 @@ import shutil
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, replace
 
+from lerobot_ivmc.constants import EVAL_INFO_FILE, LAST_PRETRAINED_MODEL
 from lerobot_ivmc.pipeline.config import PipelineConfig
 from lerobot_ivmc.pipeline.results import RESULTS_DIR
 from lerobot_ivmc.pipeline.runner import claim_root, run_stages, study_lock, write_json_atomic
-from lerobot_ivmc.pipeline.stages import Stage, build_stages, eval_stage, find_stage
+from lerobot_ivmc.pipeline.stages import (
+    COLLECT_STAGE,
+    Stage,
+    build_stages,
+    eval_stage,
+    eval_stage_name,
+    find_stage,
+    train_stage_name,
+)
 
 REGIME_FILE = "regime.json"
 PROBE_STAGE = "regime_val"
@@ -87,15 +96,15 @@ def probe_stages(cfg: PipelineConfig) -> list[Stage]:
     of the first #fc, and that BVMC without recovery on the first validation scenes."""
     stages = build_stages(cfg)
     fc = cfg.train.num_fc_layers[0]
-    training = find_stage(stages, f"train_bvmc_fc{fc}")
-    flags = find_stage(stages, f"eval_vmc_fc{fc}").argv
+    training = find_stage(stages, train_stage_name("bvmc", fc))
+    flags = find_stage(stages, eval_stage_name("vmc", fc, None)).argv
     env_flags = [flag for flag in flags if flag.startswith(("--env.", "--eval.use_async", "--max_episodes"))]
     env_flags = [flag for flag in env_flags if not flag.startswith("--env.split=")]
     out = cfg.root.resolve() / PROBE_STAGE
     r = cfg.regime
     probe = eval_stage(
         PROBE_STAGE,
-        training.output / "checkpoints" / "last" / "pretrained_model",
+        training.output / LAST_PRETRAINED_MODEL,
         out,
         env_flags,
         r.n_episodes,
@@ -105,12 +114,12 @@ def probe_stages(cfg: PipelineConfig) -> list[Stage]:
         training.name,
         split="val",
     )
-    return [find_stage(stages, "collect"), training, probe]
+    return [find_stage(stages, COLLECT_STAGE), training, probe]
 
 
 def read_probe(stage: Stage, demos: int) -> BudgetProbe:
     """The failures of a finished probe stage, from its `eval_info.json`."""
-    info = json.loads((stage.output / "eval_info.json").read_text())
+    info = json.loads((stage.output / EVAL_INFO_FILE).read_text())
     successes = [bool(episode["success"]) for episode in info["per_episode"]]
     return BudgetProbe(demos, len(successes), successes.count(False))
 

@@ -12,20 +12,22 @@ from dataclasses import asdict
 from pathlib import Path
 
 from lerobot_ivmc.evaluation.compare import EVAL_INFO_FILE, exact_mcnemar_p, paired_outcomes, rescue_record
-from lerobot_ivmc.evaluation.fig3 import most_negative_rho
 from lerobot_ivmc.evaluation.perception_check import DRIVERS as PERCEPTION_DRIVERS
+from lerobot_ivmc.evaluation.success_by_uncertainty import most_negative_rho
 from lerobot_ivmc.pipeline.config import POLICY_TYPES, PipelineConfig
 from lerobot_ivmc.pipeline.paper_table import PAPER_TABLE
 from lerobot_ivmc.pipeline.runner import StageResult, write_json_atomic
 from lerobot_ivmc.pipeline.stages import (
     PERCEPTION_RECORD,
     Stage,
+    detect_stage_name,
     eval_stage_name,
     fig3_stage_name,
     find_stage,
     perception_stage_name,
-    seed_suffix,
     stage_output,
+    threshold_stage_name,
+    train_stage_name,
 )
 from lerobot_ivmc.recovery.threshold import ThresholdRecord
 
@@ -92,7 +94,7 @@ def subtask_rates(info: dict) -> dict:
 def chain_ended(cfg: PipelineConfig, fc: int, train_seed: int, ended: set[str]) -> bool:
     """Whether a training seed's chain of #fc `fc` has finished (its last stage is the detection)."""
     main = train_seed == cfg.train.seed
-    return f"detect_fc{fc}{seed_suffix(None if main else train_seed)}" in ended
+    return detect_stage_name(fc, None if main else train_seed) in ended
 
 
 def training_seed_rows(
@@ -217,8 +219,8 @@ def perception_rows(cfg: PipelineConfig, stages: list[Stage], ended: set[str]) -
     for fc in cfg.train.num_fc_layers:
         for policy_type in POLICY_TYPES:
             for train_seed in cfg.train.seeds:
-                suffix = seed_suffix(None if train_seed == cfg.train.seed else train_seed)
-                name = perception_stage_name(f"train_{policy_type}_fc{fc}{suffix}")
+                seed = None if train_seed == cfg.train.seed else train_seed
+                name = perception_stage_name(train_stage_name(policy_type, fc, seed))
                 if name not in ended:
                     continue
                 record = json.loads((stage_output(stages, name) / PERCEPTION_RECORD).read_text())
@@ -309,7 +311,7 @@ def markdown_table(rows: list[dict]) -> str:
 def finished_fcs(cfg: PipelineConfig, timings: list[StageResult]) -> list[int]:
     """The #fc values whose Table I stages have all finished (the last of them is the detection)."""
     ended = {t.name for t in timings}
-    return [fc for fc in cfg.train.num_fc_layers if f"detect_fc{fc}" in ended]
+    return [fc for fc in cfg.train.num_fc_layers if detect_stage_name(fc) in ended]
 
 
 def adds_results(cfg: PipelineConfig, timings: list[StageResult]) -> bool:
@@ -332,7 +334,7 @@ def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageR
         fig3_info = load_eval_info(fig3_dir)
         fig3_png = out / f"fig3_fc{fc}.png"
         shutil.copyfile(fig3_dir / fig3_info["uncertainty_vs_success"]["plot"], fig3_png)
-        detection_dir = stage_output(stages, f"detect_fc{fc}")
+        detection_dir = stage_output(stages, detect_stage_name(fc))
         detection = json.loads((detection_dir / "detection.json").read_text())
         for plot in detection.get("plots", []):
             shutil.copyfile(detection_dir / plot, out / f"fc{fc}_{plot}")
@@ -433,7 +435,7 @@ def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageR
 
 def threshold_record(stages: list[Stage], fc: int) -> dict | None:
     """The picked threshold with its validation episodes (seed, u, success), so it can be re-picked."""
-    record = ThresholdRecord.load(find_stage(stages, f"threshold_fc{fc}").done_file.parent)
+    record = ThresholdRecord.load(find_stage(stages, threshold_stage_name(fc)).done_file.parent)
     return asdict(record) if record is not None else None
 
 

@@ -17,12 +17,13 @@ from pathlib import Path
 
 from lerobot.configs.policies import PreTrainedConfig
 
+from lerobot_ivmc.constants import EVAL_INFO_FILE, LAST_PRETRAINED_MODEL, PRETRAINED_MODEL_DIR
 from lerobot_ivmc.envs import DEMO_EPISODE_STEPS
 from lerobot_ivmc.evaluation.perception_check import RECORD_FILE as PERCEPTION_RECORD
+from lerobot_ivmc.hardware import cpu_has_native_bf16
 from lerobot_ivmc.pipeline.config import POLICY_TYPES, PipelineConfig
-from lerobot_ivmc.policies.vmc.modeling_vmc import cpu_has_native_bf16
 
-CHECKPOINT = Path("checkpoints") / "last" / "pretrained_model"
+CHECKPOINT = LAST_PRETRAINED_MODEL
 TRAIN_CONFIG = CHECKPOINT / "train_config.json"
 
 
@@ -126,7 +127,7 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
         "--progress=false",
     ]
     # The collector resumes its own staged demos: a killed collection reruns its command.
-    stages = [Stage("collect", collect, data, data / "meta" / "info.json", resume_argv=collect)]
+    stages = [Stage(COLLECT_STAGE, collect, data, data / "meta" / "info.json", resume_argv=collect)]
     t = cfg.train
     # Evaluation-like stages: sub-envs in parallel processes or not; no LeRobot eval videos (never read).
     async_flag = f"--eval.use_async_envs={str(cfg.async_envs).lower()}"
@@ -157,8 +158,7 @@ def chain_stages(cfg: PipelineConfig, fc: int, train_seed: int | None, chain: Ch
     foresight, threshold, the Table I rows on the test scenes, the Fig. 3 episodes and detection. Stages of
     an extra seed carry its suffix (`foresight_fc1_seed2000`); those of the main seed have none."""
     root = cfg.root.resolve()
-    suffix = seed_suffix(train_seed)
-    folder = f"fc{fc}{suffix}"
+    folder = chain_folder(fc, train_seed)
     seed = f"--seed={cfg.seed}"
     stages = []
     for training in train_stages(cfg, fc, chain.data, chain.repo_id, train_seed):
@@ -173,7 +173,7 @@ def chain_stages(cfg: PipelineConfig, fc: int, train_seed: int | None, chain: Ch
         del distillation["action_noise"]
     stages.append(
         Stage(
-            f"foresight_{folder}",
+            foresight_stage_name(fc, train_seed),
             [
                 "lerobot-ivmc-foresight",
                 f"--policy.path={bvmc}",
@@ -186,17 +186,17 @@ def chain_stages(cfg: PipelineConfig, fc: int, train_seed: int | None, chain: Ch
                 f"--output_dir={foresight}",
             ],
             output=foresight,
-            done_file=foresight / "pretrained_model" / "model.safetensors",
-            depends=[f"train_bvmc_{folder}"],
+            done_file=foresight / PRETRAINED_MODEL_DIR / "model.safetensors",
+            depends=[train_stage_name("bvmc", fc, train_seed)],
         )
     )
     th = cfg.threshold
     stages.append(
         Stage(
-            f"threshold_{folder}",
+            threshold_stage_name(fc, train_seed),
             [
                 "lerobot-ivmc-threshold",
-                f"--policy.path={foresight / 'pretrained_model'}",
+                f"--policy.path={foresight / PRETRAINED_MODEL_DIR}",
                 *chain.eval_env_flags,
                 "--env.split=val",
                 f"--eval.n_episodes={th.n_episodes}",
@@ -207,13 +207,16 @@ def chain_stages(cfg: PipelineConfig, fc: int, train_seed: int | None, chain: Ch
                 f"--output_dir={threshold}",
             ],
             output=threshold,
-            done_file=threshold / "pretrained_model" / "recovery_threshold.json",
-            depends=[f"foresight_{folder}"],
+            done_file=threshold / PRETRAINED_MODEL_DIR / "recovery_threshold.json",
+            depends=[foresight_stage_name(fc, train_seed)],
         )
     )
-    rows = [("vmc", root / "train" / f"vmc_{folder}" / CHECKPOINT, None, f"train_vmc_{folder}")]
+    rows = [
+        ("vmc", root / "train" / f"vmc_{folder}" / CHECKPOINT, None, train_stage_name("vmc", fc, train_seed))
+    ]
     rows += [
-        ("bvmc", threshold / "pretrained_model", mode, f"threshold_{folder}") for mode in cfg.recovery_modes
+        ("bvmc", threshold / PRETRAINED_MODEL_DIR, mode, threshold_stage_name(fc, train_seed))
+        for mode in cfg.recovery_modes
     ]
     for policy_type, checkpoint, mode, source in rows:
         name = eval_stage_name(policy_type, fc, mode, train_seed)
@@ -237,31 +240,31 @@ def chain_stages(cfg: PipelineConfig, fc: int, train_seed: int | None, chain: Ch
         stages.append(
             eval_stage(
                 fig3,
-                threshold / "pretrained_model",
+                threshold / PRETRAINED_MODEL_DIR,
                 out,
                 chain.eval_env_flags,
                 cfg.fig3.n_episodes,
                 cfg.fig3.batch_size,
                 seed,
                 "none",
-                f"threshold_{folder}",
+                threshold_stage_name(fc, train_seed),
             )
         )
     fig3_out = stage_output(stages, fig3)
     detection = root / "detection" / folder
     stages.append(
         Stage(
-            f"detect_{folder}",
+            detect_stage_name(fc, train_seed),
             [
                 "lerobot-ivmc-detect",
                 f"--eval_dir={fig3_out}",
-                f"--threshold_path={threshold / 'pretrained_model'}",
+                f"--threshold_path={threshold / PRETRAINED_MODEL_DIR}",
                 f"--alpha={cfg.threshold.alpha}",
                 f"--output_dir={detection}",
             ],
             output=detection,
             done_file=detection / "detection.json",
-            depends=[fig3, f"threshold_{folder}"],
+            depends=[fig3, threshold_stage_name(fc, train_seed)],
         )
     )
     return stages
@@ -270,6 +273,31 @@ def chain_stages(cfg: PipelineConfig, fc: int, train_seed: int | None, chain: Ch
 def seed_suffix(train_seed: int | None) -> str:
     """The name suffix of an extra training seed's stages and folders (none for the main seed)."""
     return "" if train_seed is None else f"_seed{train_seed}"
+
+
+# Every stage's name, spelt once: the runner's records and logs, the results and the rule find stages by them.
+COLLECT_STAGE = "collect"
+
+
+def chain_folder(fc: int, train_seed: int | None = None) -> str:
+    """`fc1`, or `fc1_seed2000` for an extra training seed: the folder of a chain's stages."""
+    return f"fc{fc}{seed_suffix(train_seed)}"
+
+
+def train_stage_name(policy_type: str, fc: int, train_seed: int | None = None) -> str:
+    return f"train_{policy_type}_{chain_folder(fc, train_seed)}"
+
+
+def foresight_stage_name(fc: int, train_seed: int | None = None) -> str:
+    return f"foresight_{chain_folder(fc, train_seed)}"
+
+
+def threshold_stage_name(fc: int, train_seed: int | None = None) -> str:
+    return f"threshold_{chain_folder(fc, train_seed)}"
+
+
+def detect_stage_name(fc: int, train_seed: int | None = None) -> str:
+    return f"detect_{chain_folder(fc, train_seed)}"
 
 
 def train_stages(
@@ -282,8 +310,8 @@ def train_stages(
     policy_fields = {**t.policy.given(), "render_style": cfg.collect.env.render_style}
     stages = []
     for policy_type in POLICY_TYPES:
-        name = f"train_{policy_type}_fc{fc}{seed_suffix(train_seed)}"
-        out = cfg.root.resolve() / "train" / f"{policy_type}_fc{fc}{seed_suffix(train_seed)}"
+        name = train_stage_name(policy_type, fc, train_seed)
+        out = cfg.root.resolve() / "train" / f"{policy_type}_{chain_folder(fc, train_seed)}"
         stages.append(
             Stage(
                 name,
@@ -312,7 +340,7 @@ def train_stages(
                 ],
                 output=out,
                 done_file=out / CHECKPOINT / "model.safetensors",
-                depends=["collect"],
+                depends=[COLLECT_STAGE],
                 env={"ACCELERATE_MIXED_PRECISION": "bf16" if t.bf16 and cpu_has_native_bf16() else "no"},
                 # LeRobot's own resume: steps, schedule, optimiser and RNG states from the last checkpoint.
                 resume_argv=["lerobot-ivmc-train", f"--config_path={out / TRAIN_CONFIG}", "--resume=true"],
@@ -323,12 +351,18 @@ def train_stages(
     return stages
 
 
+# Policy fields a training takes from its dataset, not from its command or the defaults: their input (the
+# collect stage) is in the fingerprint already. As settings they would change every training's fingerprint
+# when such a field is added (`trained_task` did), redoing the trainings of every study begun before.
+FROM_THE_DATASET = ("trained_task",)
+
+
 def resolved_policy_config(policy_type: str, fc: int, given: dict) -> dict:
-    """The fields of the policy's own config (not LeRobot's base ones, e.g. hub settings) a training gets
-    from `given` and the policy's current defaults, as JSON values."""
+    """The fields of the policy's own config (not LeRobot's base ones, e.g. hub settings, nor those it takes
+    from its dataset) a training gets from `given` and the policy's current defaults, as JSON values."""
     config = PreTrainedConfig.get_choice_class(policy_type)(device="cpu", num_fc_layers=fc, **given)
-    base = {f.name for f in fields(PreTrainedConfig)}
-    own = {name: value for name, value in asdict(config).items() if name not in base}
+    left_out = {f.name for f in fields(PreTrainedConfig)} | set(FROM_THE_DATASET)
+    own = {name: value for name, value in asdict(config).items() if name not in left_out}
     return json.loads(json.dumps(own, default=str))
 
 
@@ -379,7 +413,7 @@ def fig3_stage_name(cfg: PipelineConfig, fc: int, train_seed: int | None = None)
     )
     if same:
         return eval_stage_name("bvmc", fc, "none", train_seed)
-    return f"fig3_fc{fc}{seed_suffix(train_seed)}"
+    return f"fig3_{chain_folder(fc, train_seed)}"
 
 
 def find_stage(stages: list[Stage], name: str) -> Stage:
@@ -417,6 +451,6 @@ def eval_stage(
             f"--output_dir={out}",
         ],
         output=out,
-        done_file=out / "eval_info.json",
+        done_file=out / EVAL_INFO_FILE,
         depends=[source],
     )

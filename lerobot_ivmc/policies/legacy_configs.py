@@ -11,6 +11,7 @@ a checkpoint whose file lacks them was made with the values in `LEGACY_DEFAULTS`
 from __future__ import annotations
 
 import json
+import logging
 import os
 import sys
 from pathlib import Path
@@ -20,6 +21,8 @@ from huggingface_hub.constants import CONFIG_NAME
 from huggingface_hub.errors import HfHubHTTPError
 
 from lerobot_ivmc.policies.vmc.configuration_vmc import LEGACY_DEFAULTS, VMCConfig
+
+logger = logging.getLogger(__name__)
 
 
 def saved_config_fields(pretrained_name_or_path: str | Path, **hub_kwargs) -> set[str] | None:
@@ -63,8 +66,17 @@ def fill_legacy_defaults(
 
 def complete_legacy_config(config: VMCConfig, pretrained_name_or_path: str | Path, **hub_kwargs) -> list[str]:
     """`fill_legacy_defaults` of `config` from the checkpoint's saved config.json, leaving the fields set on
-    this process's command line as given; returns the names changed (none if the file is unreadable)."""
+    this process's command line as given; returns the names changed (none if the file is unreadable), and
+    says which in a warning."""
     saved = saved_config_fields(pretrained_name_or_path, **hub_kwargs)
     if saved is None:
         return []
-    return fill_legacy_defaults(config, saved, keep=command_line_policy_fields())
+    changed = fill_legacy_defaults(config, saved, keep=command_line_policy_fields())
+    if changed:
+        values = ", ".join(f"{name}={getattr(config, name)}" for name in changed)
+        logger.warning(
+            "%s predates sequence training as the default: it runs with its own %s",
+            pretrained_name_or_path,
+            values,
+        )
+    return changed

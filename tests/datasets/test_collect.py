@@ -22,21 +22,16 @@ from lerobot_ivmc.datasets import (
     SCENE_TARGET_CELL_KEY,
     STATE_KEY,
     demo_features,
-    rollout,
+    expert_attempts,
     staging,
 )
-from lerobot_ivmc.datasets.collect import (
-    CollectConfig,
-    _parse_args,
-    _resume_hint,
-    collect_demos,
-    main,
-    push_dataset,
-)
+from lerobot_ivmc.datasets.collect import CollectConfig, collect_demos, push_dataset
+from lerobot_ivmc.datasets.collect_root import resume_hint
 from lerobot_ivmc.datasets.collection_record import dataset_render_style
 from lerobot_ivmc.datasets.staging import CollectionError
 from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, TASK_ENVS, TASKS, make_task_env
 from lerobot_ivmc.envs.scenes import Scene
+from lerobot_ivmc.scripts.lerobot_ivmc_collect import main, parse_config
 
 IMAGE_SIZE = 32
 
@@ -123,15 +118,17 @@ def test_noisy_demos_label_the_expert_action_and_record_the_noisy_states(tmp_pat
     """DART: the robot executes label + noise; replaying exactly that reproduces the recorded states."""
     for name in ("noisy", "clean", "again"):
         (tmp_path / name).mkdir()
-    recorder = rollout.Recorder("pick_place", IMAGE_SIZE, "train", 0, tmp_path / "noisy", action_noise=0.15)
-    clean = rollout.Recorder("pick_place", IMAGE_SIZE, "train", 0, tmp_path / "clean")
+    recorder = expert_attempts.Recorder(
+        "pick_place", IMAGE_SIZE, "train", 0, tmp_path / "noisy", action_noise=0.15
+    )
+    clean = expert_attempts.Recorder("pick_place", IMAGE_SIZE, "train", 0, tmp_path / "clean")
     assert recorder.record(0) == (0, True) and clean.record(0) == (0, True)
     noisy = staging.read_episode(staging.attempt_path(tmp_path / "noisy", 0, "npz"))
     plain = staging.read_episode(staging.attempt_path(tmp_path / "clean", 0, "npz"))
     assert noisy.scene_seed == plain.scene_seed
     assert np.abs(noisy.state - plain.state).max() > 1e-3  # the noise moved the robot
 
-    noise = rollout.ActionNoise(0.15, noisy.scene_seed)
+    noise = expert_attempts.ActionNoise(0.15, noisy.scene_seed)
     env = make_task_env("pick_place", image_size=IMAGE_SIZE, terminate_on_success=False)
     observation, _ = env.reset(seed=noisy.scene_seed)
     for t in range(DEMO_EPISODE_STEPS):
@@ -143,7 +140,9 @@ def test_noisy_demos_label_the_expert_action_and_record_the_noisy_states(tmp_pat
     recorder.close()
     clean.close()
 
-    again = rollout.Recorder("pick_place", IMAGE_SIZE, "train", 0, tmp_path / "again", action_noise=0.15)
+    again = expert_attempts.Recorder(
+        "pick_place", IMAGE_SIZE, "train", 0, tmp_path / "again", action_noise=0.15
+    )
     again.record(0)
     repeat = staging.read_episode(staging.attempt_path(tmp_path / "again", 0, "npz"))
     np.testing.assert_array_equal(repeat.state, noisy.state)
@@ -192,13 +191,13 @@ def test_noisy_demos_of_the_expert_before_the_hold_are_kept_apart(tmp_path):
     info = staging.read_json(info_path)
     del info["spec"]["expert_after_last_waypoint"]  # as the expert of before the hold wrote it
     staging.write_json(info_path, info)
-    with pytest.raises(ValueError, match="recorded before the expert held its final pose.*new --root"):
+    with pytest.raises(ValueError, match="recorded before the expert held its final pose.*--dataset.root"):
         collect_demos(cfg)
     old_spec = {**cfg.spec(), "episode_steps": 150}
     del old_spec["expert_after_last_waypoint"]
-    hint = _resume_hint(cfg, old_spec)
+    hint = resume_hint(cfg, old_spec)
     assert "no command of this version records" in hint and str(cfg.root / staging.WORK_DIR) in hint
-    assert "--episode-steps 150" in _resume_hint(cfg, {**cfg.spec(), "episode_steps": 150})
+    assert "--dataset.episode_steps=150" in resume_hint(cfg, {**cfg.spec(), "episode_steps": 150})
 
 
 @pytest.mark.parametrize("action_noise", [-0.1, 1.5])
@@ -251,7 +250,9 @@ def test_non_positive_episode_count_is_refused(tmp_path, num_episodes, capsys):
     with pytest.raises(ValueError, match="num_episodes"):
         _config(tmp_path / "ds", num_episodes=num_episodes)
     with pytest.raises(SystemExit) as exit_info:
-        main(["--task", "push", "--num-episodes", str(num_episodes), "--root", str(tmp_path / "ds")])
+        main(
+            ["--env.task=push", f"--dataset.num_episodes={num_episodes}", f"--dataset.root={tmp_path / 'ds'}"]
+        )
     assert exit_info.value.code == 2 and "num_episodes" in capsys.readouterr().err
     assert not (tmp_path / "ds").exists()
 
@@ -280,8 +281,9 @@ def test_push_to_hub_uses_lerobot_push(tmp_path):
         mock.patch("lerobot.datasets.lerobot_dataset.HfApi") as hf_api,
         mock.patch("lerobot.datasets.lerobot_dataset.create_lerobot_dataset_card") as make_card,
     ):
-        argv = ["--task", "push", "--num-episodes", "1", "--root", str(root), "--image-size", str(IMAGE_SIZE)]
-        assert main([*argv, "--repo-id", "someone/ivmc_push", "--push-to-hub", "--no-progress"]) == 0
+        argv = ["--env.task=push", "--dataset.num_episodes=1", f"--dataset.root={root}"]
+        argv += [f"--env.image_size={IMAGE_SIZE}", "--dataset.repo_id=someone/ivmc_push"]
+        assert main([*argv, "--dataset.push_to_hub=true", "--progress=false"]) == 0
     api = hf_api.return_value
     api.create_repo.assert_called_once_with(
         repo_id="someone/ivmc_push", private=False, repo_type="dataset", exist_ok=True
@@ -312,7 +314,7 @@ def _start(args: list[str]) -> subprocess.Popen:
     # Its own session, so a signal reaches the collector and its workers together, as Ctrl-C or a
     # job kill would. SIGINT restored to its default: a test run launched as a background job of a
     # non-interactive shell inherits SIGINT ignored, and the collector would then never see the Ctrl-C.
-    cmd = [sys.executable, "-m", "lerobot_ivmc.datasets.collect", *args]
+    cmd = [sys.executable, "-m", "lerobot_ivmc.scripts.lerobot_ivmc_collect", *args]
     return subprocess.Popen(
         cmd,
         start_new_session=True,
@@ -335,8 +337,8 @@ def test_killed_collection_resumes_to_exactly_n_episodes(tmp_path):
     # n leaves room for a late first kill on a busy machine: the resumed run must still have episodes to
     # record when it is interrupted.
     root, n = tmp_path / "ivmc_push", 8
-    args = ["--task", "push", "--num-episodes", str(n), "--root", str(root), "--image-size", str(IMAGE_SIZE)]
-    args += ["--num-workers", "2", "--seed", "7", "--no-progress"]
+    args = ["--env.task=push", f"--dataset.num_episodes={n}", f"--dataset.root={root}"]
+    args += [f"--env.image_size={IMAGE_SIZE}", "--num_workers=2", "--seed=7", "--progress=false"]
 
     # SIGKILL mid-collection: workers die mid-episode, LeRobot's parquet writers are never closed.
     assert _interrupt_when(_start(args), lambda: _staged(root) >= 2, signal.SIGKILL) == -signal.SIGKILL
@@ -346,7 +348,9 @@ def test_killed_collection_resumes_to_exactly_n_episodes(tmp_path):
     assert staged + 1 < n, f"the first run was killed too late ({staged} of {n} staged)"
     assert _interrupt_when(_start(args), lambda: _staged(root) >= staged + 1, signal.SIGINT) == 130
     finished = subprocess.run(
-        [sys.executable, "-m", "lerobot_ivmc.datasets.collect", *args], capture_output=True, text=True
+        [sys.executable, "-m", "lerobot_ivmc.scripts.lerobot_ivmc_collect", *args],
+        capture_output=True,
+        text=True,
     )
     assert finished.returncode == 0, finished.stdout + finished.stderr
 
@@ -366,46 +370,79 @@ def test_killed_collection_resumes_to_exactly_n_episodes(tmp_path):
         np.testing.assert_array_equal(np.stack(dataset.hf_dataset[key]), np.stack(expected.hf_dataset[key]))
 
 
-def test_draccus_flags_give_the_same_collection_as_the_short_flags(tmp_path, capsys):
-    root = str(tmp_path / "ivmc_pick_place")
-    short = _parse_args(
-        [
-            "--task",
-            "pick_place",
-            "--num-episodes",
-            "5",
-            "--root",
-            root,
-            "--repo-id",
-            "me/pp",
-            "--split",
-            "val",
-        ]
-        + ["--image-size", "32", "--video", "--num-workers", "1", "--seed", "3", "--action-noise", "0.1"]
-        + ["--no-progress"]
+def test_the_command_line_is_lerobot_s_draccus_flags(tmp_path, capsys):
+    root = tmp_path / "ivmc_pick_place"
+    dotted = parse_config(
+        ["--env.task=pick_place", "--dataset.num_episodes=5", f"--dataset.root={root}"]
+        + ["--dataset.repo_id=me/pp", "--env.split=val", "--env.image_size=32", "--dataset.video=true"]
+        + ["--num_workers=1", "--seed", "3", "--action_noise=0.1", "--progress=false"]
     )
-    dotted = _parse_args(
-        [
-            "--env.task=pick_place",
-            "--dataset.num_episodes=5",
-            f"--dataset.root={root}",
-            "--dataset.repo_id=me/pp",
-        ]
-        + ["--env.split=val", "--env.image_size=32", "--dataset.video=true", "--num_workers=1", "--seed=3"]
-        + ["--action_noise=0.1", "--progress=false"]
+    assert dotted == CollectConfig(
+        task="pick_place",
+        num_episodes=5,
+        root=root,
+        repo_id="me/pp",
+        split="val",
+        image_size=32,
+        video=True,
+        num_workers=1,
+        seed=3,
+        action_noise=0.1,
+        progress=False,
     )
-    assert dotted == short
-    with pytest.raises(SystemExit):
-        _parse_args(["--env.task=push", "--dataset.num_episodes=1", "--dataset.bogus=1"])
-    assert "unrecognized arguments: --dataset.bogus=1" in capsys.readouterr().err
-    with pytest.raises(SystemExit):
-        _parse_args(["--env.task=push", f"--dataset.root={root}"])
-    assert "--dataset.num_episodes=N" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as help_exit:
+        main(["--help"])
+    usage = capsys.readouterr().out
+    assert help_exit.value.code == 0 and usage.startswith("usage: lerobot-ivmc-collect")
+    assert all(flag in usage for flag in ("--env.task", "--dataset.num_episodes", "--dataset.root", "--seed"))
+    for argv, message in (
+        (["--env.task=push", "--dataset.num_episodes=1", "--dataset.bogus=1"], "unrecognized arguments"),
+        (["--env.task=push", f"--dataset.root={root}"], "--dataset.num_episodes=N"),
+        (["--env.task=push", "--dataset.num_episodes=many"], "`dataset.num_episodes`: Couldn't parse"),
+    ):
+        with pytest.raises(SystemExit) as refused:
+            parse_config(argv)
+        assert refused.value.code == 2 and message in capsys.readouterr().err
+
+
+def test_the_short_flags_of_earlier_versions_are_refused_naming_their_replacements(tmp_path, capsys):
+    """One line, exit status 2 as argparse's, no traceback; each old flag used is named with its new one."""
+    root = tmp_path / "ds"
+    argv = ["--task", "pick_place", "--num-episodes=10", "--root", str(root), "--seed", "3"]
+    with pytest.raises(SystemExit) as refused:
+        main([*argv, "--image-size", "32", "--video", "--no-progress", "--num-workers", "0"])
+    err = capsys.readouterr().err
+    assert refused.value.code == 2 and len(err.strip().splitlines()) == 1, err
+    assert err.startswith(
+        "lerobot-ivmc-collect takes LeRobot's flags: use --env.task=pick_place instead of --task pick_place, "
+        f"--dataset.num_episodes=10 instead of --num-episodes=10, --dataset.root={root} instead of "
+        f"--root {root}, --env.image_size=32 instead of --image-size 32, --dataset.video=true "
+        "instead of --video, --progress=false instead of --no-progress, --num_workers=0 instead of "
+        "--num-workers 0 (lerobot-ivmc-collect --help lists them)."
+    )
+    assert not root.exists()
+    for old, new in (
+        ("--split", "--env.split"),
+        ("--render-style", "--env.render_style"),
+        ("--repo-id", "--dataset.repo_id"),
+        ("--episode-steps", "--dataset.episode_steps"),
+        ("--action-noise", "--action_noise"),
+    ):
+        with pytest.raises(SystemExit):
+            main(["--env.task=push", "--dataset.num_episodes=1", old, "x"])
+        assert f"use {new}=x instead of {old} x (" in capsys.readouterr().err
+    for switch, new in (
+        ("--push-to-hub", "--dataset.push_to_hub=true"),
+        ("--private", "--dataset.private=true"),
+    ):
+        with pytest.raises(SystemExit):
+            main(["--env.task=push", "--dataset.num_episodes=1", switch])
+        assert f"use {new} instead of {switch} (" in capsys.readouterr().err
 
 
 def test_a_push_that_cannot_reach_the_hub_says_the_dataset_is_kept_and_how_to_push_it(collected):
-    """Offline (or without a token), `--push-to-hub` ends in one message, not chained tracebacks; the
-    finished dataset stays, and the same command later only pushes."""
+    """Offline (or without a token), `--dataset.push_to_hub=true` ends in one message, not chained
+    tracebacks; the finished dataset stays, and the same command later only pushes."""
     from requests.exceptions import ConnectionError as NoNetwork
 
     with mock.patch.object(

@@ -12,8 +12,9 @@ import pytest
 from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
 from lerobot_ivmc.datasets import collect, staging
-from lerobot_ivmc.datasets.collect import CollectConfig, collect_demos, main
+from lerobot_ivmc.datasets.collect import CollectConfig, collect_demos
 from lerobot_ivmc.envs import DEMO_EPISODE_STEPS
+from lerobot_ivmc.scripts.lerobot_ivmc_collect import main
 
 IMAGE_SIZE = 32
 
@@ -25,26 +26,26 @@ def _config(root: Path, **overrides) -> CollectConfig:
 
 def _args(root: Path, n: int) -> list[str]:
     return [
-        "--task", "push", "--num-episodes", str(n), "--root", str(root), "--image-size", str(IMAGE_SIZE),
-        "--num-workers", "0", "--no-progress",
+        "--env.task=push", f"--dataset.num_episodes={n}", f"--dataset.root={root}",
+        f"--env.image_size={IMAGE_SIZE}", "--num_workers=0", "--progress=false",
     ]  # fmt: skip
 
 
 def _collector(args: list[str]) -> subprocess.Popen:
-    cmd = [sys.executable, "-m", "lerobot_ivmc.datasets.collect", *args]
+    cmd = [sys.executable, "-m", "lerobot_ivmc.scripts.lerobot_ivmc_collect", *args]
     return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
 
 
 def _interrupted(root: Path, monkeypatch, staged: int = 1) -> None:
     """Leave an unfinished collection in `root`: `staged` episodes staged, nothing published."""
-    append = collect._Assembler.append
+    append = collect.EpisodeAssembler.append
 
     def append_then_stop(self, episode):
         append(self, episode)
         if len(self.episodes) >= staged:
             raise KeyboardInterrupt
 
-    monkeypatch.setattr(collect._Assembler, "append", append_then_stop)
+    monkeypatch.setattr(collect.EpisodeAssembler, "append", append_then_stop)
     with pytest.raises(KeyboardInterrupt):
         collect_demos(_config(root))
     monkeypatch.undo()
@@ -180,7 +181,10 @@ def test_unfinished_collection_of_another_spec_says_how_to_continue(tmp_path, mo
     with pytest.raises(ValueError, match="image_size: stored 32, asked 48") as error:
         collect_demos(_config(root, image_size=48))
     message = str(error.value)
-    assert f"--root {root} --num-episodes 2 --task push --split train --seed 0 --image-size 32" in message
+    assert (
+        f"--dataset.root={root} --dataset.num_episodes=2 --env.task=push --env.split=train --seed=0 "
+        "--env.image_size=32 --env.render_style=fast;" in message
+    )
     assert f"remove {root / staging.WORK_DIR}" in message
 
 
@@ -207,7 +211,7 @@ def test_reruns_write_byte_identical_datasets(tmp_path):
     root, runs = tmp_path / "ds", []
     for hash_seed in ("1", "2"):
         env = {**os.environ, "PYTHONHASHSEED": hash_seed}
-        cmd = [sys.executable, "-m", "lerobot_ivmc.datasets.collect", *_args(root, 2)]
+        cmd = [sys.executable, "-m", "lerobot_ivmc.scripts.lerobot_ivmc_collect", *_args(root, 2)]
         done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300)
         assert done.returncode == 0, done.stdout + done.stderr
         runs.append(_files(root))

@@ -61,7 +61,7 @@ def test_expert_lifts_on_the_first_frame_the_grasp_is_visibly_complete(task):
 def test_after_its_last_waypoint_the_expert_holds_that_pose_against_action_noise(task):
     """With injected action noise (DART demos), the finished expert steers back to its last waypoint instead
     of labelling a random walk "stay still"; without noise it stays still."""
-    from lerobot_ivmc.datasets.rollout import ActionNoise
+    from lerobot_ivmc.datasets.expert_attempts import ActionNoise
 
     env = make_task_env(task, image_size=32, terminate_on_success=False)
     expert = make_expert(env)

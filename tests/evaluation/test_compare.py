@@ -60,11 +60,11 @@ def test_the_cli_names_a_truncated_record_in_one_line(tmp_path: Path) -> None:
         folder.mkdir()
     (good / "eval_info.json").write_text(json.dumps(run([True, False])))
     (bad / "eval_info.json").write_text(json.dumps(run([True, False]))[:40])
-    command = [sys.executable, "-m", "lerobot_ivmc.evaluation.compare", str(good), str(bad)]
+    command = [sys.executable, "-m", "lerobot_ivmc.scripts.lerobot_ivmc_compare", str(good), str(bad)]
     result = subprocess.run(command, capture_output=True, text=True, timeout=120)
     assert result.returncode == 2
     assert f"{bad / 'eval_info.json'} is not a complete lerobot-ivmc-eval record" in result.stderr
-    command = [sys.executable, "-m", "lerobot_ivmc.evaluation.compare", str(good), str(good)]
+    command = [sys.executable, "-m", "lerobot_ivmc.scripts.lerobot_ivmc_compare", str(good), str(good)]
     result = subprocess.run(command, capture_output=True, text=True, timeout=120)
     assert result.returncode == 0 and "2 paired scenes)" in result.stdout
 

@@ -9,13 +9,13 @@ from lerobot.configs.policies import PreTrainedConfig
 from lerobot.configs.types import FeatureType, PolicyFeature
 from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
 
+from lerobot_ivmc.cli import run_cli
 from lerobot_ivmc.envs.configuration_ivmc import IMAGE_KEY, IvmcEnv
 from lerobot_ivmc.evaluation.compatibility import (
     EnvMismatchError,
     check_policy_matches_env,
 )
 from lerobot_ivmc.policies import BVMCConfig, BVMCPolicy, VMCConfig
-from lerobot_ivmc.scripts.errors import run_cli
 
 
 def _policy_config(image_size: int = 64, cls: type[VMCConfig] = VMCConfig) -> VMCConfig:

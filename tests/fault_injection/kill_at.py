@@ -3,7 +3,7 @@
     python tests/fault_injection/kill_at.py <point> <lerobot-ivmc-collect arguments>
 
 SIGKILL is what an out-of-memory killer or a pulled plug does: no handler, no cleanup, no flush. Record
-with ``--num-workers 0`` so every point is reached in this process.
+with ``--num_workers=0`` so every point is reached in this process.
 """
 
 from __future__ import annotations
@@ -15,7 +15,8 @@ import sys
 
 from lerobot.datasets.lerobot_dataset import LeRobotDataset, LeRobotDatasetMetadata
 
-from lerobot_ivmc.datasets import collect, rollout, staging
+from lerobot_ivmc.datasets import expert_attempts, staging
+from lerobot_ivmc.scripts import lerobot_ivmc_collect
 
 
 def _die() -> None:
@@ -49,7 +50,7 @@ def _before(owner: object, name: str, when=lambda *args, **kwargs: True) -> None
 
 POINTS = {
     # Attempt 1 staged, not assembled yet.
-    "staged": lambda: _after(rollout.Recorder, "record", lambda self, attempt: attempt == 1),
+    "staged": lambda: _after(expert_attempts.Recorder, "record", lambda self, attempt: attempt == 1),
     # Episode 0 written to the build's data parquet, whose writer (and footer) is still open.
     "saving_episode": lambda: _before(
         LeRobotDataset, "save_episode", lambda self: self.meta.total_episodes == 1
@@ -70,4 +71,4 @@ POINTS = {
 if __name__ == "__main__":
     point, *argv = sys.argv[1:]
     POINTS[point]()
-    sys.exit(collect.main(argv))
+    sys.exit(lerobot_ivmc_collect.main(argv))

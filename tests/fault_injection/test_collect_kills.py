@@ -23,8 +23,8 @@ POINTS = ["staged", "saving_episode", "finalizing", "before_publish", "publishin
 
 def _args(root: Path) -> list[str]:
     return [
-        "--task", "push", "--num-episodes", str(N), "--root", str(root), "--image-size", "32",
-        "--num-workers", "0", "--seed", "3", "--no-progress",
+        "--env.task=push", f"--dataset.num_episodes={N}", f"--dataset.root={root}", "--env.image_size=32",
+        "--num_workers=0", "--seed=3", "--progress=false",
     ]  # fmt: skip
 
 
@@ -54,7 +54,7 @@ def test_killed_collection_reruns_to_the_uninterrupted_dataset(reference, point)
         if point not in ("publishing", "cleaning_up"):
             assert not (root / "meta").exists()  # nothing half-published
         rerun = subprocess.run(
-            [sys.executable, "-m", "lerobot_ivmc.datasets.collect", *_args(root)],
+            [sys.executable, "-m", "lerobot_ivmc.scripts.lerobot_ivmc_collect", *_args(root)],
             capture_output=True,
             text=True,
             timeout=300,

@@ -12,10 +12,15 @@ from pathlib import Path
 
 import pytest
 
+from lerobot_ivmc.hardware import cpu_has_native_bf16
 from lerobot_ivmc.pipeline.stages import build_stages
-from lerobot_ivmc.policies.vmc.modeling_vmc import cpu_has_native_bf16
+from lerobot_ivmc.pipeline.study import parse_config
 from lerobot_ivmc.recovery.threshold import argmax_threshold
-from lerobot_ivmc.scripts.pipeline import parse_config
+from lerobot_ivmc.scripts.lerobot_ivmc_pipeline import main as pipeline_main
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "fault_injection"))  # the pipeline's kill points
+
+from stage_kills import redo_with_a_kill_in_each  # noqa: E402
 
 ROWS = ["vmc", "none", "rand", "init", "min_unc", "anchor"]
 
@@ -182,21 +187,28 @@ def test_bad_input_is_refused_with_what_to_do(capsys: pytest.CaptureFixture) -> 
     with pytest.raises(SystemExit):
         parse_config(["--task=push", "--preset=smoke", "--train.stepz=5"])
     assert "--train.stepz" in capsys.readouterr().err
+    # The console command ends each in one line with exit status 2 (run in this process but the first).
     bad_task = pipeline("--task=stack", "--preset=smoke")
     assert bad_task.returncode == 2 and "Unknown task 'stack'" in bad_task.stderr
-    bad_fc = pipeline("--task=push", "--preset=smoke", "--train.num_fc_layers=[3]")
-    assert bad_fc.returncode == 2 and "num_fc_layers" in bad_fc.stderr
+
+    def refusal(*args: str) -> str:
+        with pytest.raises(SystemExit) as ended:
+            pipeline_main(list(args))
+        assert ended.value.code == 2, args
+        return capsys.readouterr().err
+
+    assert "num_fc_layers" in refusal("--task=push", "--preset=smoke", "--train.num_fc_layers=[3]")
     for seeds in ("[1000]", "[5,5]"):  # the main seed again, or a seed twice: the same policies twice
-        same_seed = pipeline("--task=push", "--preset=smoke", f"--train.extra_seeds={seeds}")
-        assert same_seed.returncode == 2 and "--train.extra_seeds must differ" in same_seed.stderr
-    negative = pipeline("--task=push", "--preset=smoke", "--train.extra_seeds=[-1]")
-    assert negative.returncode == 2 and "Training seeds must be in" in negative.stderr
-    negative_limit = pipeline("--task=push", "--preset=smoke", "--perception.max_object_error_cm=-1")
-    assert negative_limit.returncode == 2 and "max_object_error_cm must be >= 0" in negative_limit.stderr
-    no_plain_bvmc = pipeline(
+        same_seed = refusal("--task=push", "--preset=smoke", f"--train.extra_seeds={seeds}")
+        assert "--train.extra_seeds must differ" in same_seed
+    negative = refusal("--task=push", "--preset=smoke", "--train.extra_seeds=[-1]")
+    assert "Training seeds must be in" in negative
+    negative_limit = refusal("--task=push", "--preset=smoke", "--perception.max_object_error_cm=-1")
+    assert "max_object_error_cm must be >= 0" in negative_limit
+    no_plain_bvmc = refusal(
         "--task=push", "--preset=smoke", "--train.extra_seeds=[7]", "--recovery_modes=[min_unc]"
     )
-    assert no_plain_bvmc.returncode == 2 and "needs 'none' in --recovery_modes" in no_plain_bvmc.stderr
+    assert "needs 'none' in --recovery_modes" in no_plain_bvmc
     # Values a late stage would refuse are refused before the study starts (not hours in).
     for override, message in (
         ("--threshold.method=conformall", "--threshold.method must be one of ('argmax', 'conformal')"),
@@ -300,6 +312,9 @@ def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Pa
         assert row["acting"]["object_cm"] > 0 and len(row["acting"]["per_scene_object_cm"]) == 2
     assert "Perception check" in table
     assert first.stdout.count("done earlier") == len(results["stage_wall_s"]), first.stdout
+    # Fault injection: a stage of every kind the suite does not kill elsewhere (perception check, foresight,
+    # threshold, eval, detect) redone, SIGKILLed midway with the pipeline and rerun: the study ends as it was.
+    redo_with_a_kill_in_each(out, ["--task=push", "--preset=smoke", f"--output_dir={out}"])
 
     before = sorted((p, p.stat().st_mtime_ns) for p in out.rglob("*"))
     other = pipeline("--task=pick_place", "--preset=smoke", f"--output_dir={out}")

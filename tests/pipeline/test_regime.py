@@ -10,7 +10,7 @@ import pytest
 
 from lerobot_ivmc.pipeline import regime
 from lerobot_ivmc.pipeline.regime import REGIME_FILE, BudgetProbe, choose_budget, run_regime
-from lerobot_ivmc.scripts.pipeline import parse_config
+from lerobot_ivmc.pipeline.study import parse_config
 
 
 def probes_for(curve: dict[int, int], episodes: int = 50) -> list[BudgetProbe]:

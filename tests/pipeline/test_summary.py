@@ -8,9 +8,8 @@ from pathlib import Path
 
 import pytest
 
+from lerobot_ivmc.pipeline.reproduction import ResultsError, SummaryConfig, goal_checks, write_summary
 from lerobot_ivmc.pipeline.stages import console_script
-from lerobot_ivmc.pipeline.summary import ResultsError, goal_checks
-from lerobot_ivmc.scripts.summary import SummaryConfig, write_summary
 
 METHODS = {
     "vmc": "VMC",

@@ -8,9 +8,9 @@ from policy_helpers import make_config
 from safetensors.torch import load_file, save_file
 from torch import nn
 
+from lerobot_ivmc.cli import run_cli
 from lerobot_ivmc.policies import BVMCConfig, BVMCPolicy, VMCConfig, VMCPolicy
 from lerobot_ivmc.policies.checkpoint_checks import CheckpointError
-from lerobot_ivmc.scripts.errors import run_cli
 
 POLICIES = [(VMCConfig, VMCPolicy), (BVMCConfig, BVMCPolicy)]
 

@@ -4,10 +4,15 @@ Adam 6e-4), window training keeps its own, and checkpoints saved before the swit
 from __future__ import annotations
 
 import json
+import sys
+from dataclasses import asdict
 from pathlib import Path
+from pprint import pformat
 
 import pytest
 import torch
+from lerobot.configs import parser
+from lerobot.configs.eval import EvalPipelineConfig
 from lerobot.configs.policies import PreTrainedConfig
 from policy_helpers import make_config, observation_batch
 
@@ -64,6 +69,41 @@ def test_a_checkpoint_saved_before_the_switch_loads_and_acts_as_trained(cls, tmp
         old.reset(), loaded.reset()
         obs = observation_batch(2)
         assert torch.equal(old.select_action(obs), loaded.select_action(obs))
+
+
+@pytest.mark.parametrize("cls", [VMCPolicy, BVMCPolicy])
+def test_a_pre_switch_config_read_by_a_lerobot_command_holds_the_values_it_acts_with(
+    cls, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """As `lerobot-eval --policy.path` (or lerobot-train, lerobot-record) reads it: its logged and saved
+    config show the old training mode and heads the policy runs with, not today's defaults."""
+    checkpoint = tmp_path / "old"
+    save_as_before_the_switch(cls(make_config(cls.config_class, rollout_memory="window")), checkpoint)
+    argv = ["lerobot-eval", f"--policy.path={checkpoint}", "--env.type=ivmc", "--env.task=push"]
+    argv.append(f"--output_dir={tmp_path / 'eval'}")
+    monkeypatch.setattr(sys, "argv", argv)
+
+    def parsed(cfg):
+        return cfg
+
+    parsed.__annotations__ = {"cfg": EvalPipelineConfig}  # a class, not this file's postponed string
+    read = parser.wrap()(parsed)  # lerobot-eval's own parsing of its command line
+    config = read().policy
+    assert (config.training_mode, config.goal_head, config.frame_position_head) == ("window", False, False)
+    assert config.rollout_memory == "window"
+    logged = pformat(asdict(config))  # what lerobot-eval logs before it builds the policy
+    assert "'training_mode': 'window'" in logged and "'goal_head': False" in logged
+    (tmp_path / "saved").mkdir()
+    config._save_pretrained(tmp_path / "saved")  # as a training's checkpoints save it
+    saved = json.loads((tmp_path / "saved" / "config.json").read_text())
+    assert (saved["training_mode"], saved["goal_head"], saved["frame_position_head"]) == (
+        "window",
+        False,
+        False,
+    )
+    # A field given on the command line is kept as given.
+    monkeypatch.setattr(sys, "argv", [*argv, "--policy.frame_position_head=true"])
+    assert read().policy.frame_position_head is True
 
 
 def test_a_checkpoint_saved_now_keeps_every_field(tmp_path: Path) -> None:

@@ -15,7 +15,7 @@ from policy_helpers import IMAGE_KEY, STATE_DIM, TINY_REPO_ID, make_config
 
 from lerobot_ivmc.datasets.frame_cache import FrameCache
 from lerobot_ivmc.policies import BVMCPolicy, VMCConfig, VMCPolicy
-from lerobot_ivmc.policies.vmc.modeling_vmc import supervised_losses
+from lerobot_ivmc.policies.vmc.losses import supervised_losses
 
 
 def chunk_batch(batch_size: int = 3, length: int = 12, seed: int = 0) -> dict[str, torch.Tensor]:

@@ -14,7 +14,7 @@ from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
 from policy_helpers import IMAGE_KEY, make_batch, make_config, observation_batch
 
 from lerobot_ivmc.policies import BVMCConfig, BVMCPolicy, VMCConfig, VMCPolicy
-from lerobot_ivmc.policies.vmc.modeling_vmc import random_shift
+from lerobot_ivmc.policies.vmc.network import random_shift
 
 
 def make_policy(cls: type[VMCPolicy] = BVMCPolicy, **kwargs) -> VMCPolicy:

@@ -36,9 +36,9 @@ def run_cli(name: str, *args: str) -> subprocess.CompletedProcess:
 def run_main(name: str, *args: str):
     """Run one of the plugin's draccus CLIs in this process (as its console script would, minus the
     interpreter start-up), with `args` as its command line; exceptions propagate."""
-    from lerobot_ivmc.evaluation.eval_subtasks import eval_main
-    from lerobot_ivmc.scripts.pick_threshold import threshold_main
-    from lerobot_ivmc.scripts.train_foresight import foresight_main
+    from lerobot_ivmc.scripts.lerobot_ivmc_eval import eval_main
+    from lerobot_ivmc.scripts.lerobot_ivmc_foresight import foresight_main
+    from lerobot_ivmc.scripts.lerobot_ivmc_threshold import threshold_main
 
     mains = {
         "lerobot-ivmc-eval": eval_main,

@@ -6,7 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from lerobot_ivmc.scripts.demo import SHIPPED_CHECKPOINT
+from lerobot_ivmc.evaluation.demo import SHIPPED_CHECKPOINT
 
 
 def test_demo_runs_on_the_shipped_checkpoint_and_writes_its_page(tmp_path: Path) -> None:

@@ -19,7 +19,7 @@ from lerobot_ivmc.policies.vmc.modeling_vmc import VMCPolicy
 
 
 def inspect(checkpoint: Path, out: Path, *flags: str) -> dict:
-    from lerobot_ivmc.evaluation.inspect_episode import inspect_main
+    from lerobot_ivmc.scripts.lerobot_ivmc_inspect import inspect_main
 
     argv = ["lerobot-ivmc-inspect", f"--policy.path={checkpoint}", *ENV_FLAGS, f"--output_dir={out}", *flags]
     with mock.patch.object(sys, "argv", argv):

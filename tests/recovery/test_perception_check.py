@@ -76,7 +76,7 @@ def expert_track(seed: int, steps: int) -> list[tuple[np.ndarray, np.ndarray]]:
 
 
 def check(checkpoint: Path, out: Path, *flags: str) -> dict:
-    from lerobot_ivmc.evaluation.perception_check import perception_main
+    from lerobot_ivmc.scripts.lerobot_ivmc_perception import perception_main
 
     argv = [
         "lerobot-ivmc-perception",

@@ -19,10 +19,10 @@ import torch
 from recovery_helpers import ENV_FLAGS, EPISODE_LENGTH, console_script, run_main
 
 from lerobot_ivmc.datasets.root_lock import EVAL_LOCK_FILE
+from lerobot_ivmc.evaluation.detection_report import DetectionConfig, detect
 from lerobot_ivmc.evaluation.traces import load_traces
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
 from lerobot_ivmc.recovery.threshold import THRESHOLD_FILE, ThresholdRecord, argmax_threshold
-from lerobot_ivmc.scripts.detect import DetectionConfig, detect
 
 
 def evaluate(checkpoint: Path, out: Path, *flags: str) -> dict:
@@ -243,7 +243,7 @@ def test_bad_requests_say_what_to_do(
 
 
 def test_cli_ends_with_a_one_line_message(tiny_recovery_checkpoint: Path, tmp_path: Path, capsys) -> None:
-    from lerobot_ivmc.evaluation.eval_subtasks import main
+    from lerobot_ivmc.scripts.lerobot_ivmc_eval import main
 
     argv = ["lerobot-ivmc-eval", f"--policy.path={tiny_recovery_checkpoint}", *ENV_FLAGS]
     argv += ["--recovery.mode=retry", "--seed=0", f"--output_dir={tmp_path}"]

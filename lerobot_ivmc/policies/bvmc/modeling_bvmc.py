@@ -17,7 +17,8 @@ from lerobot_ivmc.policies.bvmc.configuration_bvmc import DEFAULT_DATASET_SIZE, 
 from lerobot_ivmc.policies.bvmc.foresight import UncertaintyForesight, from_log_uncertainty
 from lerobot_ivmc.policies.bvmc.uncertainty import trace_cov_uncertainty
 from lerobot_ivmc.policies.vmc.configuration_vmc import ACTION_DIM
-from lerobot_ivmc.policies.vmc.modeling_vmc import HUB_KWARGS, VMCPolicy, gripper_commands
+from lerobot_ivmc.policies.vmc.modeling_vmc import HUB_KWARGS, VMCPolicy
+from lerobot_ivmc.policies.vmc.network import gripper_commands
 from lerobot_ivmc.recovery.threshold import ThresholdRecord
 
 logger = logging.getLogger(__name__)

@@ -199,6 +199,22 @@ class VMCConfig(PreTrainedConfig):
             raise ValueError(
                 f"ACTION normalisation must be IDENTITY (the gripper is a class label), got {action_mode}."
             )
+        self._built = True  # from here on, naming the checkpoint completes the config (`__setattr__`)
+
+    def __setattr__(self, name: str, value) -> None:
+        """Set the field; naming a built config's checkpoint (`pretrained_path`) also puts back the values a
+        checkpoint saved before sequence training became the default acts with (`legacy_configs`).
+
+        LeRobot's commands read `--policy.path` with `PreTrainedConfig.from_pretrained`, which fills the
+        fields its `config.json` lacks from today's defaults, then set `pretrained_path`, before they log or
+        save the config: completed here, both show the values the policy acts with. (Not while the dataclass
+        is built: a train config resumed from file names the checkpoint it was fine-tuned from before its
+        own saved fields are set.)"""
+        super().__setattr__(name, value)
+        if name == "pretrained_path" and value is not None and self.__dict__.get("_built"):
+            from lerobot_ivmc.policies.legacy_configs import complete_legacy_config
+
+            complete_legacy_config(self, value)
 
     def get_optimizer_preset(self) -> AdamConfig:
         return AdamConfig(

@@ -1,25 +1,16 @@
-"""`lerobot-ivmc-detect`: failure-prediction metrics of a bvmc evaluation without recovery.
-
-Reads a `lerobot-ivmc-eval --recovery.mode=none` output (per-episode u and the per-step traces) and the
-threshold record of the evaluated checkpoint (its validation episodes), and writes `detection.json` and
-plots: AUROC of u for failure; TPR, TNR, balanced accuracy and lead time at the paper's argmax threshold
-and at a conformal threshold calibrated on the validation successes; the false-alarm rate on the test
-successes against alpha for several alphas (the conformal guarantee, checked).
-
-    lerobot-ivmc-detect --eval_dir=outputs/eval/bvmc_test --alpha=0.1
-"""
+"""Failure-prediction metrics of a bvmc evaluation without recovery, the library of `lerobot-ivmc-detect`
+(`scripts/lerobot_ivmc_detect.py`): AUROC of u, the metrics at the argmax and a conformal threshold, the
+conformal sweep against alpha, written to `detection.json` with plots."""
 
 import json
 import logging
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from lerobot.configs import parser
-
+from lerobot_ivmc.constants import EVAL_INFO_FILE
 from lerobot_ivmc.evaluation.detection import auroc, conformal_sweep, metrics_at_threshold, plot_detection
 from lerobot_ivmc.evaluation.traces import TRACES_FILE, load_traces
 from lerobot_ivmc.recovery.threshold import ThresholdRecord, check_finite, conformal_threshold
-from lerobot_ivmc.scripts.errors import cli_main
 
 logger = logging.getLogger(__name__)
 
@@ -45,9 +36,9 @@ class DetectionConfig:
 
 
 def detect(cfg: DetectionConfig) -> dict:
-    if cfg.eval_dir is None or not (Path(cfg.eval_dir) / "eval_info.json").is_file():
+    if cfg.eval_dir is None or not (Path(cfg.eval_dir) / EVAL_INFO_FILE).is_file():
         raise FileNotFoundError(f"--eval_dir={cfg.eval_dir} holds no eval_info.json of lerobot-ivmc-eval.")
-    info = json.loads((Path(cfg.eval_dir) / "eval_info.json").read_text())
+    info = json.loads((Path(cfg.eval_dir) / EVAL_INFO_FILE).read_text())
     if info.get("recovery", {}).get("mode") != "none":
         raise ValueError(
             "Failure prediction is measured on episodes without recovery: pass the output of "
@@ -118,46 +109,3 @@ def detect(cfg: DetectionConfig) -> dict:
     ]
     (output_dir / DETECTION_FILE).write_text(json.dumps(result, indent=2))
     return result
-
-
-def percent(rate: dict | None) -> str:
-    """A rate as "12.3%", or "n/a" where it is undefined (no episode of that class)."""
-    return "n/a" if rate is None else f"{rate['pc']:.1f}%"
-
-
-@parser.wrap()
-def detect_main(cfg: DetectionConfig) -> dict:
-    result = detect(cfg)
-    print(
-        f"{result['task']}: AUROC of u for failure {result['auroc']:.3f} ({result['failures']} failures in "
-        f"{result['episodes']} episodes)"
-    )
-    for name in ("argmax", "conformal"):
-        m = result[name]
-        if m is None:
-            continue
-        if "unavailable" in m:
-            print(f"  {name:<9} unavailable: {m['unavailable']}")
-            continue
-        median_lead = (m.get("lead_time_steps") or {}).get("median", float("nan"))
-        balanced = m.get("balanced_accuracy", float("nan"))
-        print(
-            f"  {name:<9} C={m['threshold']:.3f}: TPR {percent(m['tpr'])}, TNR {percent(m['tnr'])}, "
-            f"balanced {balanced:.1f}%, lead time {median_lead:.0f} steps (median)"
-        )
-    for row in result["conformal_sweep"]:
-        rate = row["false_alarm_rate"]
-        verdict = "within" if row["within_bound"] else "OUTSIDE"
-        print(
-            f"  alpha {row['alpha']:.2f}: false alarms on test successes {rate['pc']:.1f} +- "
-            f"{rate['stderr']:.1f}% ({verdict} alpha + 2 SE)"
-        )
-    return result
-
-
-def main() -> None:
-    cli_main(detect_main)
-
-
-if __name__ == "__main__":
-    main()

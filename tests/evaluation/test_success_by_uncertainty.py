@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from lerobot_ivmc.evaluation.fig3 import most_negative_rho, success_by_uncertainty_bins
+from lerobot_ivmc.evaluation.success_by_uncertainty import most_negative_rho, success_by_uncertainty_bins
 
 
 def test_bins_sort_episodes_by_uncertainty_into_equal_bins() -> None:

@@ -1,18 +1,11 @@
-"""`lerobot-ivmc-experts`: run the scripted expert on each task, report success, save episode videos.
+"""The scripted experts run on held-out or training scenes, the library of `lerobot-ivmc-experts`
+(`scripts/lerobot_ivmc_experts.py`): each milestone's success rate per task, videos of the first episodes."""
 
-Examples:
-    lerobot-ivmc-experts                                   # 3 episodes per task, a video of each
-    lerobot-ivmc-experts --n_episodes=500 --n_videos=0     # expert success rate on 500 train scenes
-    lerobot-ivmc-experts --config_path=configs/experts.yaml
-"""
-
-import json
 import logging
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from lerobot.configs import parser
 from lerobot.utils.io_utils import write_video
 from tqdm import tqdm
 
@@ -81,26 +74,3 @@ def run_task(cfg: ExpertRunConfig, task: str) -> dict:
     finally:
         env.close()
     return {name: float(np.mean(values)) for name, values in milestones.items()}
-
-
-@parser.wrap()
-def run_experts(cfg: ExpertRunConfig) -> dict[str, dict[str, float]]:
-    results = {task: run_task(cfg, task) for task in cfg.tasks}
-    cfg.output_dir.mkdir(parents=True, exist_ok=True)
-    summary = {"config": {**asdict(cfg), "output_dir": str(cfg.output_dir)}, "success": results}
-    (cfg.output_dir / "expert_success.json").write_text(json.dumps(summary, indent=2))
-    print(f"Expert success over {cfg.n_episodes} {cfg.split} scenes per task (seeds {cfg.seed}..):")
-    for task, rates in results.items():
-        print(f"  {task:<11}" + "  ".join(f"{name} {rate:6.1%}" for name, rate in rates.items()))
-    if cfg.n_videos:
-        print(f"Videos: {cfg.output_dir / 'videos'}")
-    return results
-
-
-def main() -> None:
-    logging.basicConfig(level=logging.INFO)
-    run_experts()
-
-
-if __name__ == "__main__":
-    main()

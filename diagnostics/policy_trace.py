@@ -5,7 +5,7 @@ Every `--every` steps it prints where the gripper and the object are, what the p
 the same state (the expert plans along the policy's own trajectory, so read its action as a hint, not an
 exact label). This is how the stalled grasp hand-off described in the README was found.
 
-    python benchmarks/policy_trace.py \\
+    python -m diagnostics.policy_trace \\
         --policy-path outputs/train/bvmc/checkpoints/012500/pretrained_model --seed 1 --split val
 """
 
@@ -13,13 +13,13 @@ import argparse
 
 import numpy as np
 import torch
-from checkpoint import InspectedPolicy
 from lerobot.envs.utils import preprocess_observation
 
+from diagnostics.checkpoint import InspectedPolicy
 from lerobot_ivmc.envs import TASKS, make_task_env
 from lerobot_ivmc.envs.scenes import SPLITS
 from lerobot_ivmc.experts import make_expert
-from lerobot_ivmc.policies.vmc.modeling_vmc import deterministic_action
+from lerobot_ivmc.policies.vmc.network import deterministic_action
 
 
 def main() -> None:

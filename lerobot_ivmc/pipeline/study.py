@@ -1,31 +1,18 @@
-"""`lerobot-ivmc-pipeline`: one task's whole study, from nothing to Table I, Fig. 3 and detection metrics.
-
-    lerobot-ivmc-pipeline --task=push --preset=lite [--output_dir=...] [--train.steps=4000 ...]
-
-Presets are `lerobot_ivmc/pipeline/presets/<preset>.yaml` (smoke, lite, paper; shipped with the package);
-any field can be overridden with the draccus flags of `PipelineConfig` (a field that does not exist is
-refused). Rerun the same command to resume: finished stages are skipped, a killed stage is continued where
-it can be (demo collection, a training from its last checkpoint) or redone, and a changed stage reruns with
-everything after it. Results: `<output_dir>/results/` (`<task>.json`, `table.md`, plots, videos), written as
-each #fc finishes (and as each extra training seed's evaluations do, `--train.extra_seeds=[2000]`).
-With `--regime.demo_budgets=[...]` the study first chooses its number of demos by the data-budget rule
-(`lerobot_ivmc/pipeline/regime.py`) and runs in `<output_dir>/demos<n>/`.
-"""
+"""A study from its config: the preset and flags parsed into a `PipelineConfig`, and the stages run (or
+resumed) in the study's folder with the results written as they grow; the library of
+`lerobot-ivmc-pipeline` (`scripts/lerobot_ivmc_pipeline.py`)."""
 
 from __future__ import annotations
 
 import json
-import sys
 import time
 
 import draccus
 
 from lerobot_ivmc.pipeline.config import PRESETS_DIR, PipelineConfig
-from lerobot_ivmc.pipeline.regime import run_regime
 from lerobot_ivmc.pipeline.results import RESULTS_DIR, adds_results, write_results
-from lerobot_ivmc.pipeline.runner import PipelineError, StageResult, claim_root, run_stages, study_lock
+from lerobot_ivmc.pipeline.runner import StageResult, claim_root, run_stages, study_lock
 from lerobot_ivmc.pipeline.stages import build_stages
-from lerobot_ivmc.scripts.errors import run_cli
 
 
 def available_presets() -> list[str]:
@@ -75,25 +62,3 @@ def run_pipeline(cfg: PipelineConfig, log=print) -> dict:
     log(f"  {'this run':<28} {'':<8} {time.perf_counter() - start:8.0f} s")
     log(f"\n{(out / 'table.md').read_text()}\nResults in {out}")
     return json.loads((out / f"{cfg.task}.json").read_text())
-
-
-def main(argv: list[str] | None = None) -> None:
-    """Console entry point: bad input exits 2 with one line; a failed stage exits 1 naming its log."""
-    argv = sys.argv[1:] if argv is None else argv
-
-    def run() -> None:
-        cfg = parse_config(argv)
-        try:
-            if cfg.regime.demo_budgets:
-                run_regime(cfg, run_pipeline)
-            else:
-                run_pipeline(cfg)
-        except PipelineError as error:
-            print(f"error: {error}", file=sys.stderr)
-            sys.exit(1)
-
-    run_cli(run)
-
-
-if __name__ == "__main__":
-    main()

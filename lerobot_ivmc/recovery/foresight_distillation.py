@@ -1,14 +1,7 @@
-"""`lerobot-ivmc-foresight`: distil the uncertainty foresight head into a bvmc checkpoint.
-
-Deploys the Bayesian VMC on training scenes, executing one Monte Carlo sample per step, records
-(e_t, a_t, u_{t+1}) (resumable shards), trains the head, reports its quality on held-out trajectories and
-on trying every candidate action of sampled states in a copy of the env, and writes a NEW checkpoint
-folder `<output_dir>/pretrained_model` (the input checkpoint is never modified) that `from_pretrained`
-loads as a policy that both acts and foresees.
-
-    lerobot-ivmc-foresight --policy.path=<bvmc checkpoint> --env.type=ivmc --env.task=pick_place \\
-        --foresight.num_trajectories=2000 --eval.batch_size=10 --seed=0 --output_dir=outputs/foresight
-"""
+"""Distilling a bvmc checkpoint's uncertainty foresight head, the library of `lerobot-ivmc-foresight`
+(`scripts/lerobot_ivmc_foresight.py`): rollouts of the policy recording embeddings, actions and the
+uncertainty measured at the next step, the head trained on them, its held-out quality and action ranking,
+and a new checkpoint folder holding the head."""
 
 import json
 import logging
@@ -17,10 +10,10 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import torch
-from lerobot.configs import parser
 from lerobot.configs.eval import EvalPipelineConfig
 from lerobot.utils.random_utils import set_seed
 
+from lerobot_ivmc.constants import PRETRAINED_MODEL_DIR
 from lerobot_ivmc.envs import make_task_env_from_config
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
 from lerobot_ivmc.envs.vector_env import make_vector_env
@@ -34,12 +27,11 @@ from lerobot_ivmc.recovery.foresight_training import (
     split_by_trajectory,
     train_foresight,
 )
-from lerobot_ivmc.scripts.errors import cli_main
 
 logger = logging.getLogger(__name__)
 
 REPORT_FILE = "foresight_report.json"
-CHECKPOINT_DIR = "pretrained_model"
+CHECKPOINT_DIR = PRETRAINED_MODEL_DIR
 
 
 @dataclass
@@ -82,7 +74,7 @@ def check_inputs(cfg: ForesightPipelineConfig) -> Path:
     return checkpoint
 
 
-def run(cfg: ForesightPipelineConfig) -> dict:
+def distill_foresight(cfg: ForesightPipelineConfig) -> dict:
     checkpoint = check_inputs(cfg)
     cfg.env.split = cfg.foresight.split
     set_seed(cfg.seed)
@@ -150,36 +142,3 @@ def run(cfg: ForesightPipelineConfig) -> dict:
     (checkpoint / REPORT_FILE).write_text(text)
     (output_dir / REPORT_FILE).write_text(text)
     return report
-
-
-@parser.wrap()
-def foresight_main(cfg: ForesightPipelineConfig) -> dict:
-    report = run(cfg)
-    quality = report["heldout"]
-    print(
-        f"Foresight head on {report['num_heldout_records']} held-out records: Spearman rho "
-        f"{quality['spearman_rho']:.3f}, R^2 (log u) {quality['r2_log']:.3f}, R^2 (u) {quality['r2']:.3f} "
-        f"(persistence baseline rho {quality['baseline_persistence_spearman_rho']:.3f})"
-    )
-    if "action_ranking" in report:
-        ranking = report["action_ranking"]
-        print(
-            f"Action ranking on {ranking['num_states']} states: argmin match "
-            f"{ranking['argmin_match_rate']:.3f} "
-            f"(chance {ranking['chance_match_rate']:.3f}, measurement self-agreement "
-            f"{ranking['measurement_self_match_rate']:.3f}), percentile of choice "
-            f"{ranking['mean_percentile_of_choice']:.3f} (chance 0.5); measured next uncertainty of its "
-            f"choice {ranking['measured_u_of_choice']:.4f}, of a random candidate "
-            f"{ranking['measured_u_mean_candidate']:.4f}, of the best "
-            f"{ranking['measured_u_best_candidate']:.4f}"
-        )
-    print(f"Checkpoint with the foresight head: {Path(cfg.output_dir) / CHECKPOINT_DIR}")
-    return report
-
-
-def main() -> None:
-    cli_main(foresight_main)
-
-
-if __name__ == "__main__":
-    main()

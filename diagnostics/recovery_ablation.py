@@ -7,7 +7,7 @@ p), the phases at which the variant's failures stopped (the first milestone an e
 for pick_place "reach" = never reached the cube, "pick" = reached, not picked, "place" = picked, not
 placed) and, of the baseline's failures in each phase, how many the variant rescued.
 
-    python benchmarks/recovery_ablation.py <eval>/none <eval>/min_unc <eval>/anchor [--json ablation.json]
+    python -m diagnostics.recovery_ablation <eval>/none <eval>/min_unc <eval>/anchor [--json ablation.json]
 """
 
 from __future__ import annotations

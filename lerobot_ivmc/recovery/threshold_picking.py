@@ -1,23 +1,14 @@
-"""`lerobot-ivmc-threshold`: pick the recovery threshold of a bvmc checkpoint on validation scenes.
-
-Runs the Bayesian VMC (mean of S samples, no recovery) through `lerobot-ivmc-eval` on validation
-scenes, records per episode its success and u (the maximum sliding-window sum of step uncertainties),
-picks the threshold with the paper's argmax, and writes a NEW checkpoint folder
-`<output_dir>/pretrained_model`: a copy of the input with `recovery_threshold.json` (the threshold, the
-window and the (u, success) pairs it came from), which `lerobot-ivmc-eval --recovery.mode=...` finds from
-`--policy.path` alone. The evaluation's own outputs (eval_info.json, traces, Fig. 3) stay in `<output_dir>`.
-
-    lerobot-ivmc-threshold --policy.path=<bvmc checkpoint> --env.type=ivmc --env.task=pick_place \\
-        --env.split=val --eval.n_episodes=100 --eval.batch_size=10 --seed=0 --output_dir=outputs/threshold
-"""
+"""Picking a bvmc checkpoint's recovery threshold on validation scenes, the library of
+`lerobot-ivmc-threshold` (`scripts/lerobot_ivmc_threshold.py`): the evaluation without recovery, the
+threshold by the paper's argmax or by conformal calibration, and a new checkpoint folder holding the
+threshold record."""
 
 import logging
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
-from lerobot.configs import parser
-
+from lerobot_ivmc.constants import PRETRAINED_MODEL_DIR
 from lerobot_ivmc.evaluation.eval_subtasks import IvmcEvalConfig, evaluate
 from lerobot_ivmc.recovery.threshold import (
     DEFAULT_WINDOW,
@@ -26,11 +17,10 @@ from lerobot_ivmc.recovery.threshold import (
     argmax_threshold,
     conformal_threshold,
 )
-from lerobot_ivmc.scripts.errors import cli_main
 
 logger = logging.getLogger(__name__)
 
-CHECKPOINT_DIR = "pretrained_model"
+CHECKPOINT_DIR = PRETRAINED_MODEL_DIR
 
 
 @dataclass
@@ -99,29 +89,3 @@ def pick(cfg: ThresholdPipelineConfig) -> ThresholdRecord:
     shutil.copytree(source, checkpoint)
     record.save(checkpoint)
     return record
-
-
-@parser.wrap()
-def threshold_main(cfg: ThresholdPipelineConfig) -> ThresholdRecord:
-    record = pick(cfg)
-    above = sum(e["u"] > record.threshold for e in record.episodes)
-    print(
-        f"{record.task}: threshold C = {record.threshold:.4f} ({record.method}, window {record.window}) from "
-        f"{len(record.episodes)} {record.split} episodes; {above} of them exceed it."
-    )
-    if all(e["success"] for e in record.episodes):
-        print(
-            f"No {record.split} episode failed: the threshold has nothing to learn from. Recovery will "
-            "trigger only above every validation episode's uncertainty; to bound false alarms instead, use "
-            "--method=conformal --alpha=<rate>."
-        )
-    print(f"Checkpoint with the threshold: {Path(cfg.output_dir) / CHECKPOINT_DIR}")
-    return record
-
-
-def main() -> None:
-    cli_main(threshold_main)
-
-
-if __name__ == "__main__":
-    main()

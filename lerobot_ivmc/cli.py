@@ -1,4 +1,4 @@
-"""End a CLI on a bad input with the plugin's own one-line message instead of a long traceback."""
+"""The command-line runner: a bad input ends a command with the plugin's one-line message, not a traceback."""
 
 from __future__ import annotations
 

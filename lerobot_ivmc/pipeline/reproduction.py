@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from lerobot_ivmc.envs import TASKS
-from lerobot_ivmc.evaluation.fig3 import most_negative_rho
+from lerobot_ivmc.evaluation.success_by_uncertainty import most_negative_rho
 from lerobot_ivmc.pipeline.results import finite, rescue_cells
 
 RHO_GOAL = -0.8
@@ -356,3 +356,29 @@ def summarize(paths: list[Path]) -> tuple[str, dict]:
         "rescue": rescues,
     }
     return markdown + "\n", summary
+
+
+MARKDOWN_FILE = "reproduction.md"
+JSON_FILE = "reproduction.json"
+
+
+@dataclass
+class SummaryConfig:
+    """Args:
+    results_dir: the folder holding the studies' `<task>.json` files.
+    output_dir: where reproduction.md and reproduction.json go; default: `results_dir`.
+    """
+
+    results_dir: Path | None = None
+    output_dir: Path | None = None
+
+
+def write_summary(cfg: SummaryConfig) -> tuple[Path, Path]:
+    if cfg.results_dir is None:
+        raise ValueError("Give --results_dir=<folder with the studies' <task>.json files>.")
+    markdown, summary = summarize(find_results(Path(cfg.results_dir)))
+    out = Path(cfg.output_dir or cfg.results_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / MARKDOWN_FILE).write_text(markdown)
+    (out / JSON_FILE).write_text(json.dumps(summary, indent=2))
+    return out / MARKDOWN_FILE, out / JSON_FILE

@@ -11,7 +11,7 @@ all, each anchor's median error and the share within the target's radius (3 cm) 
     for s in $(seq 0 59); do lerobot-ivmc-inspect --policy.path=<bvmc> --env.type=ivmc \\
         --env.task=pick_place --env.split=val --env.render_style=fast --episode_seed=$s --seed=0 \\
         --output_dir=<records>; done
-    python benchmarks/anchor_beliefs.py <records> --threshold=2.39 [--json anchor_beliefs.json]
+    python -m diagnostics.anchor_beliefs <records> --threshold=2.39 [--json anchor_beliefs.json]
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ checkpoints), and its wall time is read from the training log: the time of LeRob
 after step N" line minus the log's first timestamped line (a resumed training's downtime is included; the
 script says when the log shows more than one start).
 
-    python benchmarks/learning_curve.py --train-dir <out> --train-log <out>.log --task pick_place \\
+    python -m diagnostics.learning_curve --train-dir <out> --train-log <out>.log --task pick_place \\
         --split val --episodes 20 --out <curve folder>
 """
 

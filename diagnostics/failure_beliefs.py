@@ -13,7 +13,7 @@ with its believed goal on its believed object, while the true object is elsewher
 
     for s in 0 3 4; do lerobot-ivmc-inspect --policy.path=<bvmc> --env.type=ivmc --env.task=push \\
         --env.split=test --env.episode_length=200 --episode_seed=$s --output_dir=<out>; done
-    python benchmarks/failure_beliefs.py <out> [--json beliefs.json]
+    python -m diagnostics.failure_beliefs <out> [--json beliefs.json]
 """
 
 import argparse

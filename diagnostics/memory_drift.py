@@ -8,7 +8,7 @@ printed per 25-step bucket, with the share of rollouts that have succeeded by th
 side by side (e.g. a sequence-trained one with carried memory and a window-trained one) run on the same
 scenes.
 
-    python benchmarks/memory_drift.py --episodes 20 \\
+    python -m diagnostics.memory_drift --episodes 20 \\
         --policy-path <sequence run>/checkpoints/last/pretrained_model \\
         --policy-path <window run>/checkpoints/last/pretrained_model
 """
@@ -17,12 +17,12 @@ import argparse
 
 import numpy as np
 import torch
-from checkpoint import InspectedPolicy
 from lerobot.envs.utils import preprocess_observation
 
+from diagnostics.checkpoint import InspectedPolicy
 from lerobot_ivmc.envs import MAX_EPISODE_STEPS, TASKS, make_task_env
 from lerobot_ivmc.envs.scenes import SPLITS
-from lerobot_ivmc.policies.vmc.modeling_vmc import deterministic_action
+from lerobot_ivmc.policies.vmc.network import deterministic_action
 
 BUCKET = 25
 

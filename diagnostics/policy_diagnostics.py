@@ -5,7 +5,7 @@ how far its outputs are from the expert's: the delta end-effector command (mean 
 units of 5 cm), the gripper command (accuracy), and the auxiliary end-effector and object positions (mean
 absolute error per axis, in cm, after undoing the normalisation).
 
-    python benchmarks/policy_diagnostics.py \\
+    python -m diagnostics.policy_diagnostics \\
         --policy-path outputs/train/bvmc/checkpoints/005000/pretrained_model \\
         --dataset-root data/ivmc_pick_place --repo-id local/ivmc_pick_place --episodes 20
 """
@@ -14,10 +14,10 @@ import argparse
 
 import numpy as np
 import torch
-from checkpoint import InspectedPolicy
 from lerobot.datasets.lerobot_dataset import LeRobotDataset
 from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
 
+from diagnostics.checkpoint import InspectedPolicy
 from lerobot_ivmc.datasets.features import IMAGE_KEY
 
 

@@ -1,24 +1,15 @@
-"""`lerobot-ivmc-demo`: a policy that detects its failures and recovers, in a few minutes on a CPU.
-
-    lerobot-ivmc-demo [--output_dir=outputs/demo] [--n_episodes=20] [--mode=anchor] [--policy_path=...]
-
-Evaluates the pick_place `bvmc` shipped with the package (`lerobot_ivmc/checkpoints/pick_place_bvmc`, its
-foresight head and threshold inside; model card in its README.md) on the same held-out test scenes without
-and with recovery (`lerobot-ivmc-eval`, once each), prints the table (success, failures, flagged, rescued,
-lost) and writes `demo.md` next to Fig. 3 and a recovery video in `output_dir`.
-"""
+"""The demo behind `lerobot-ivmc-demo` (`scripts/lerobot_ivmc_demo.py`): the shipped pick_place `bvmc`
+evaluated on the same held-out test scenes without and with recovery, and the page that puts the table,
+Fig. 3 and a recovery video together."""
 
 import subprocess
 import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from lerobot.configs import parser
-
 from lerobot_ivmc.evaluation.compare import load_run
 from lerobot_ivmc.evaluation.demo_page import demo_table, write_demo_page
 from lerobot_ivmc.recovery.config import RECOVERY_MODES
-from lerobot_ivmc.scripts.errors import cli_main
 
 SHIPPED_CHECKPOINT = Path(__file__).resolve().parents[1] / "checkpoints" / "pick_place_bvmc"
 
@@ -93,17 +84,3 @@ def run_demo(cfg: DemoConfig) -> Path:
     print(table)
     command = " ".join(["lerobot-ivmc-demo", *sys.argv[1:]])
     return write_demo_page(runs["none"], runs[cfg.mode], cfg.output_dir, command)
-
-
-@parser.wrap()
-def demo_main(cfg: DemoConfig) -> None:
-    page = run_demo(cfg)
-    print(f"The page: {page}")
-
-
-def main() -> None:
-    cli_main(demo_main)
-
-
-if __name__ == "__main__":
-    main()

@@ -6,9 +6,9 @@ at a time, each from the object believed after the last, at most `PUSH_LEGS`), w
 cube's true position plus independent Gaussian errors of `--noise` metres on x and y (fresh for each leg)
 and the goal belief the target plus one such error. Prints, per noise level, the scenes whose cube ended
 on the target and the steps taken. The trained heads' errors are what a real recovery meets
-(`benchmarks/anchor_beliefs.py` measures them on pick_place).
+(`diagnostics/anchor_beliefs.py` measures them on pick_place).
 
-    MUJOCO_GL=egl python benchmarks/push_legs.py --scenes 20 --noise 0 0.01 0.02
+    MUJOCO_GL=egl python -m diagnostics.push_legs --scenes 20 --noise 0 0.01 0.02
 """
 
 from __future__ import annotations

@@ -1,0 +1,100 @@
+"""LeRobot's writer behind the collector: staged episodes appended, in order, to a LeRobotDataset built in
+the staging folder, its statistics file written with sorted keys, `datasets`' progress bars silenced."""
+
+from __future__ import annotations
+
+import contextlib
+import warnings
+from collections.abc import Iterator
+from pathlib import Path
+
+import datasets
+import numpy as np
+from lerobot.datasets.lerobot_dataset import LeRobotDataset
+from lerobot.datasets.utils import STATS_PATH, write_json
+
+from lerobot_ivmc.datasets import staging
+from lerobot_ivmc.datasets.collect_config import CollectConfig
+from lerobot_ivmc.datasets.features import (
+    ACTION_KEY,
+    DEMO_FPS,
+    ENV_STATE_KEY,
+    IMAGE_KEY,
+    SCENE_OBJECT_CELL_KEY,
+    SCENE_SEED_KEY,
+    SCENE_TARGET_CELL_KEY,
+    STATE_KEY,
+    demo_features,
+)
+from lerobot_ivmc.envs import TASK_ENVS
+
+ROBOT_TYPE = "fetch"
+
+
+class EpisodeAssembler:
+    """Appends staged episodes, in order, to a LeRobotDataset built in the staging folder."""
+
+    def __init__(self, cfg: CollectConfig, build_root: Path):
+        self.task_description = TASK_ENVS[cfg.task].task_description
+        self.dataset = LeRobotDataset.create(
+            repo_id=cfg.repo_id,
+            fps=DEMO_FPS,
+            features=demo_features(cfg.image_size, cfg.video),
+            root=build_root,
+            robot_type=ROBOT_TYPE,
+            use_videos=cfg.video,
+        )
+        self.episodes: list[dict] = []
+
+    def append(self, episode: staging.StagedEpisode) -> None:
+        scene = {
+            SCENE_SEED_KEY: np.array([episode.scene_seed], dtype=np.int64),
+            SCENE_OBJECT_CELL_KEY: np.array([episode.object_cell], dtype=np.int64),
+            SCENE_TARGET_CELL_KEY: np.array([episode.target_cell], dtype=np.int64),
+        }
+        for t in range(episode.num_frames):
+            self.dataset.add_frame(
+                {
+                    IMAGE_KEY: episode.images[t],
+                    STATE_KEY: episode.state[t],
+                    ENV_STATE_KEY: episode.environment_state[t],
+                    ACTION_KEY: episode.action[t],
+                    **scene,
+                    "task": self.task_description,
+                }
+            )
+        with warnings.catch_warnings():
+            # `datasets` warns when it casts LeRobot's shape-(1,) arrays to scalar columns; harmless.
+            warnings.filterwarnings("ignore", "Conversion of an array with ndim > 0", DeprecationWarning)
+            self.dataset.save_episode()
+        self.episodes.append(
+            {
+                "episode_index": len(self.episodes),
+                "attempt": episode.attempt,
+                "scene_seed": episode.scene_seed,
+                "object_cell": episode.object_cell,
+                "target_cell": episode.target_cell,
+            }
+        )
+
+
+def sort_stats(build_root: Path) -> None:
+    """Rewrite LeRobot's `meta/stats.json` with sorted keys (it lists features in hash-seed order)."""
+
+    def sort(obj):
+        return {key: sort(obj[key]) for key in sorted(obj)} if isinstance(obj, dict) else obj
+
+    path = build_root / STATS_PATH
+    write_json(sort(staging.read_json(path)), path)
+
+
+@contextlib.contextmanager
+def quiet_datasets() -> Iterator[None]:
+    """Silence the `datasets` progress bars LeRobot triggers on every `save_episode`."""
+    was_enabled = datasets.is_progress_bar_enabled()
+    datasets.disable_progress_bars()
+    try:
+        yield
+    finally:
+        if was_enabled:
+            datasets.enable_progress_bars()

@@ -1,0 +1,134 @@
+"""What a demo collection is asked for (`CollectConfig`, checked when made) and what it did
+(`CollectSummary`); `lerobot-ivmc-collect`'s flags are `record_config.RecordDemosConfig`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from lerobot_ivmc.datasets import staging
+from lerobot_ivmc.datasets.features import (
+    DEMO_FPS,
+    demo_features,
+)
+from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, check_demo_episode_steps, check_task, gym_id
+from lerobot_ivmc.envs.camera import check_image_size
+from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE, LEGACY_RENDER_STYLE, check_render_style
+from lerobot_ivmc.envs.scenes import SPLITS
+
+
+@dataclass
+class CollectConfig:
+    """What to collect and where.
+
+    Args:
+        task: task name, one of `lerobot_ivmc.envs.TASKS`.
+        num_episodes: number of successful demonstrations the dataset must hold.
+        root: local dataset folder; default ``data/ivmc_<task>`` under the working directory.
+        repo_id: dataset id (``<hub user>/<name>`` to push); default ``local/ivmc_<task>``.
+        split: scene split the demonstrations come from: "train" (policy training), "val" or "test".
+        image_size: camera image height and width, in pixels.
+        render_style: how the camera image is drawn (`fetch_env.RENDER_STYLES`); recorded in the dataset's
+            `meta/ivmc_collection.json`, from which `lerobot-ivmc-train` records it in the checkpoint.
+        video: store the camera as mp4 video instead of PNG frames (slower to decode when training).
+        num_workers: parallel recording processes; 0 records in this process.
+        seed: base seed from which every attempt's scene seed is derived.
+        action_noise: std (action units, 1 = 5 cm) of Gaussian noise on the executed delta-EE command while
+            the recorded action stays the expert's (DART); 0 records the expert's own trajectories.
+        episode_steps: steps of every demo, 100 (4 s at 25 Hz) to 200 (the rollouts' limit). Success does
+            not end a demo: once done, the expert holds its final pose, so longer demos show the policy's
+            carried memory older states than the 100-step demos.
+        push_to_hub: publish the finished dataset with `LeRobotDataset.push_to_hub`.
+        private: make the hub repository private.
+        progress: show a progress bar.
+    """
+
+    task: str
+    num_episodes: int
+    root: Path | None = None
+    repo_id: str | None = None
+    split: str = "train"
+    image_size: int = 64
+    render_style: str = DEFAULT_RENDER_STYLE
+    video: bool = False
+    num_workers: int = 2
+    seed: int = 0
+    action_noise: float = 0.0
+    episode_steps: int = DEMO_EPISODE_STEPS
+    push_to_hub: bool = False
+    private: bool = False
+    progress: bool = True
+
+    def __post_init__(self) -> None:
+        check_task(self.task)
+        if not isinstance(self.num_episodes, int) or self.num_episodes <= 0:
+            raise ValueError(f"num_episodes must be a positive integer, got {self.num_episodes!r}.")
+        if self.split not in SPLITS:
+            raise ValueError(f"Unknown split {self.split!r}; choose one of {SPLITS}.")
+        check_image_size("image_size", self.image_size)
+        check_render_style("render_style", self.render_style)
+        if self.num_workers < 0:
+            raise ValueError(f"num_workers must be >= 0, got {self.num_workers}.")
+        if self.seed < 0:
+            raise ValueError(f"seed must be >= 0, got {self.seed}.")
+        check_demo_episode_steps("episode_steps", self.episode_steps)
+        if not 0.0 <= self.action_noise <= 1.0:
+            raise ValueError(f"action_noise must be in [0, 1] action units, got {self.action_noise}.")
+        self.root = Path(self.root) if self.root is not None else Path("data") / f"ivmc_{self.task}"
+        if self.root.exists() and not self.root.is_dir():
+            raise ValueError(f"root {self.root} is a file; give a folder (new, or one this command made).")
+        self.repo_id = self.repo_id or f"local/ivmc_{self.task}"
+        if self.repo_id.count("/") != 1:
+            raise ValueError(f"repo_id must look like '<user>/<name>', got {self.repo_id!r}.")
+        if self.push_to_hub and self.repo_id.startswith("local/"):
+            raise ValueError(
+                f"--dataset.push_to_hub needs a hub repo id '<hf user>/<name>' (--dataset.repo_id), got "
+                f"{self.repo_id!r}."
+            )
+
+    def spec(self) -> dict:
+        """What the dataset in `root` must match to be resumed or reused (the episode count aside)."""
+        # Noise-free collections keep the spec they had before noise injection existed. Noisy ones name the
+        # expert's behaviour after its last waypoint (it holds that pose against the noise; before, it
+        # stood still and let the noise random-walk the arm), so the two kinds never mix in one dataset.
+        noise = (
+            {"action_noise": self.action_noise, "expert_after_last_waypoint": "hold"}
+            if self.action_noise > 0
+            else {}
+        )
+        # Datasets of the Fetch XML's look keep the spec they had before render styles existed.
+        style = {} if self.render_style == LEGACY_RENDER_STYLE else {"render_style": self.render_style}
+        return staging.normalise(
+            {
+                **noise,
+                **style,
+                "task": self.task,
+                "gym_id": gym_id(self.task),
+                "split": self.split,
+                "seed": self.seed,
+                "image_size": self.image_size,
+                "video": self.video,
+                "fps": DEMO_FPS,
+                "episode_steps": self.episode_steps,
+                "features": demo_features(self.image_size, self.video),
+            }
+        )
+
+
+@dataclass
+class CollectSummary:
+    """What a collection produced."""
+
+    root: str
+    repo_id: str
+    task: str
+    split: str
+    num_episodes: int
+    num_frames: int
+    attempts: int = 0
+    failed_attempts: int = 0
+    resumed_episodes: int = 0
+    already_complete: bool = False
+    pushed: bool = False
+    elapsed_s: float = 0.0
+    episode_seeds: list[int] = field(default_factory=list)

@@ -1,0 +1,110 @@
+"""The dataset root a collection writes: checked against the config (the same collection resumes, another
+one or foreign files are refused, a published dataset is kept), and how to resume an unfinished one."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from lerobot_ivmc.datasets import staging
+from lerobot_ivmc.datasets.collect_config import CollectConfig
+from lerobot_ivmc.datasets.collection_record import spec_render_style
+from lerobot_ivmc.datasets.root_lock import LOCK_FILE
+from lerobot_ivmc.envs import DEMO_EPISODE_STEPS
+
+
+def resume_hint(cfg: CollectConfig, spec: dict) -> str:
+    """How to continue an unfinished collection of `spec` in `cfg.root`, or drop it."""
+    drop = f"to drop it, remove {cfg.root / staging.WORK_DIR}."
+    if made_by_the_drifting_expert(spec):
+        return (
+            "Its demos were recorded by the expert of before the final-pose hold, which no command of this "
+            f"version records: {drop}"
+        )
+    args = f"--env.task={spec['task']} --env.split={spec['split']} --seed={spec['seed']}"
+    args += f" --env.image_size={spec['image_size']}"
+    args += f" --env.render_style={spec_render_style(spec)}"
+    args += " --dataset.video=true" * bool(spec.get("video"))
+    args += f" --action_noise={spec['action_noise']}" if spec.get("action_noise") else ""
+    if spec.get("episode_steps", DEMO_EPISODE_STEPS) != DEMO_EPISODE_STEPS:
+        args += f" --dataset.episode_steps={spec['episode_steps']}"
+    return (
+        f"To finish it, rerun with its arguments: lerobot-ivmc-collect --dataset.root={cfg.root} "
+        f"--dataset.num_episodes={cfg.num_episodes} {args}; {drop}"
+    )
+
+
+def made_by_the_drifting_expert(spec: dict) -> bool:
+    """A noisy collection of before the expert held its final pose (its spec does not name the hold)."""
+    return bool(spec.get("action_noise")) and "expert_after_last_waypoint" not in spec
+
+
+def foreign_entries(root: Path, ours: set[str]) -> list[str]:
+    return sorted(path.name for path in root.iterdir() if path.name not in ours)
+
+
+def prepare_root(cfg: CollectConfig) -> Path | None:
+    """Check `root` against the config; return the staging folder to collect into, or None if published.
+
+    Deletes only what the collector wrote: its staging folder's build and temporary files. A publish cut
+    short is finished, not rebuilt.
+
+    Raises:
+        ValueError: `root` holds something else: another task or feature spec, another episode count,
+            or files that are not a collection of this plugin. Nothing is deleted then.
+    """
+    root, wanted = cfg.root, cfg.spec()
+    work = root / staging.WORK_DIR
+    staging.remove_tree(root / staging.TRASH_DIR)  # a finished collection killed while cleaning up
+    if work.exists() and not (work / staging.SPEC_FILE).exists():
+        staging.remove_tree(work)  # killed before anything was staged
+    if work.exists():
+        stored = staging.read_json(work / staging.SPEC_FILE)
+        diffs = staging.spec_differences(stored, wanted)
+        if diffs:
+            raise ValueError(
+                f"{root} holds an unfinished collection of another spec: {'; '.join(diffs)}. "
+                + resume_hint(cfg, stored)
+            )
+        ours = {staging.WORK_DIR, LOCK_FILE}
+        publishing = (work / staging.PUBLISH_FILE).exists()
+        if publishing:  # the folders already moved into the root are ours
+            ours |= {name for name in staging.read_json(work / staging.PUBLISH_FILE)}
+            ours -= {path.name for path in staging.publish_blockers(work, root)}
+        foreign = foreign_entries(root, ours)
+        if foreign:
+            raise ValueError(
+                f"{root} holds an unfinished collection and files it did not write: {', '.join(foreign)}. "
+                f"Move them out of {root} and rerun; nothing was changed."
+            )
+        if publishing:
+            staging.finish_publish(work, root)
+            return None
+        staging.remove_tree(work / staging.BUILD_DIR)
+        (work / staging.EPISODES_DIR).mkdir(exist_ok=True)
+        return work
+    if (root / "meta" / "info.json").exists():
+        info_path = root / staging.COLLECTION_INFO_PATH
+        if not info_path.exists():
+            raise ValueError(f"{root} holds a LeRobot dataset not made by lerobot-ivmc-collect; refusing.")
+        collection = staging.read_json(info_path)
+        diffs = staging.spec_differences(collection["spec"], wanted)
+        if diffs and made_by_the_drifting_expert(collection["spec"]):
+            raise ValueError(
+                f"{root} holds noisy demos recorded before the expert held its final pose (after its last "
+                "waypoint it stood still while the noise moved the arm); this version records the hold. "
+                "Keep that dataset and collect into a new --dataset.root."
+            )
+        if diffs:
+            raise ValueError(f"{root} holds a dataset of another spec: {'; '.join(diffs)}.")
+        if collection["num_episodes"] != cfg.num_episodes:
+            raise ValueError(
+                f"{root} already holds {collection['num_episodes']} episodes, not {cfg.num_episodes}; "
+                "collect into a new --dataset.root."
+            )
+        return None
+    if foreign_entries(root, {LOCK_FILE}):
+        raise ValueError(f"{root} is not empty and holds no collection of this plugin; refusing to write.")
+    work.mkdir()
+    staging.write_json(work / staging.SPEC_FILE, wanted)
+    (work / staging.EPISODES_DIR).mkdir()
+    return work

@@ -1,0 +1,52 @@
+"""A study's stage fingerprints stay what they were: a changed fingerprint redoes the stage and everything
+after it (hours of training at `lite`), so only a change of what a stage computes may change one."""
+
+from __future__ import annotations
+
+import pytest
+
+from lerobot_ivmc.pipeline import stages as stages_module
+from lerobot_ivmc.pipeline.runner import fingerprint
+from lerobot_ivmc.pipeline.stages import build_stages
+from lerobot_ivmc.pipeline.study import parse_config
+
+# The fingerprints of `lerobot-ivmc-pipeline --task=pick_place --preset=lite --train.num_fc_layers=[1]
+# --output_dir=/studies/pick_place_lite` on a CPU with native bf16, as the code of 72da9bb (the running
+# lite studies') computed them. Change one only with a change of what its stage computes, knowing that every
+# study begun before redoes that stage and all after it.
+LITE_PICK_PLACE = {
+    "collect": "a530cb8fe6fe2304",
+    "train_vmc_fc1": "efc6c777afa13adb",
+    "check_vmc_fc1": "071d17ca6b782830",
+    "train_bvmc_fc1": "0157db68a2fe98f7",
+    "check_bvmc_fc1": "4c45cbf05b3a874c",
+    "foresight_fc1": "ca7723ea15159635",
+    "threshold_fc1": "87c9fc82071d5c9e",
+    "eval_vmc_fc1": "5b6d79dc12a01906",
+    "eval_bvmc_fc1_none": "c64b667510a064bf",
+    "eval_bvmc_fc1_rand": "0deae0bfbeed1352",
+    "eval_bvmc_fc1_init": "cae409a12d99787b",
+    "eval_bvmc_fc1_min_unc": "6945b9b7098c08c7",
+    "eval_bvmc_fc1_anchor": "cbf89424e54df36d",
+    "detect_fc1": "6e7b0a3c610b79c0",
+}
+
+
+def test_studies_begun_earlier_keep_their_stage_fingerprints(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Also: a policy field the training takes from its dataset (`trained_task`, added after those studies
+    began) is not a setting of the training stage; its input, the collect stage, is in the fingerprint."""
+    monkeypatch.setattr(stages_module, "cpu_has_native_bf16", lambda: True)
+    cfg = parse_config(
+        [
+            "--task=pick_place",
+            "--preset=lite",
+            "--output_dir=/studies/pick_place_lite",
+            "--train.num_fc_layers=[1]",
+        ]
+    )
+    found: dict[str, str] = {}
+    for stage in build_stages(cfg):
+        found[stage.name] = fingerprint(stage, found)
+    assert found == LITE_PICK_PLACE
+    train = next(stage for stage in build_stages(cfg) if stage.name == "train_bvmc_fc1")
+    assert "trained_task" not in train.settings and train.settings["render_style"] == "fast"
