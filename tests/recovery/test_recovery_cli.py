@@ -6,9 +6,7 @@ from __future__ import annotations
 import json
 import re
 import shutil
-import subprocess
 import sys
-import time
 from pathlib import Path
 from unittest import mock
 
@@ -16,9 +14,8 @@ import av
 import numpy as np
 import pytest
 import torch
-from recovery_helpers import ENV_FLAGS, EPISODE_LENGTH, console_script, run_main
+from recovery_helpers import ENV_FLAGS, EPISODE_LENGTH, run_main
 
-from lerobot_ivmc.datasets.root_lock import EVAL_LOCK_FILE
 from lerobot_ivmc.evaluation.detection_report import DetectionConfig, detect
 from lerobot_ivmc.evaluation.traces import load_traces
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
@@ -291,36 +288,6 @@ def test_a_foresight_head_does_not_change_the_rollout(tiny_bvmc: Path, tiny_fore
     assert [e["max_uncertainty"] for e in a["per_episode"]] == [
         e["max_uncertainty"] for e in b["per_episode"]
     ]
-
-
-def test_a_second_evaluation_into_a_folder_in_use_is_refused(tiny_recovery_checkpoint: Path, tmp_path: Path):
-    """Two evals with one --output_dir would mix their results and videos: the second is refused while the
-    first holds the folder, and the first ends as if alone."""
-    out = tmp_path / "eval"
-    first = subprocess.Popen(
-        [
-            console_script("lerobot-ivmc-eval"),
-            f"--policy.path={tiny_recovery_checkpoint}",
-            *ENV_FLAGS,
-            "--eval.n_episodes=4",
-            "--eval.batch_size=2",
-            "--seed=0",
-            f"--output_dir={out}",
-        ],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    deadline = time.monotonic() + 120
-    while not (out / EVAL_LOCK_FILE).exists() and first.poll() is None and time.monotonic() < deadline:
-        time.sleep(0.05)
-    assert first.poll() is None, "the first evaluation ended before the second could start"
-    with pytest.raises(FileExistsError, match="is being written by another evaluation"):
-        evaluate(tiny_recovery_checkpoint, out)
-    _, stderr = first.communicate(timeout=600)
-    assert first.returncode == 0, stderr[-2000:]
-    assert json.loads((out / "eval_info.json").read_text())["run"]["n_episodes"] == 4
-    assert not (out / EVAL_LOCK_FILE).exists()
 
 
 def test_detect_refuses_in_sample_runs_and_bounds_outside_zero_one(tiny_recovery_checkpoint: Path, tmp_path):
