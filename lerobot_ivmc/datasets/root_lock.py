@@ -1,5 +1,5 @@
-"""One writer per output folder (a collection root, an evaluation's output): an OS-level lock on a file in
-the folder that dies with its holder.
+"""One writer per output folder (a collection root, an evaluation's output, a pipeline study): an OS-level
+lock on a file in the folder that dies with its holder.
 
 `fcntl.flock` locks belong to the open file, so the kernel releases them when the holder exits or is
 killed (SIGKILL included): a killed collection never leaves a stale lock, and the next run takes it over.

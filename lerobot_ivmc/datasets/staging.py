@@ -32,6 +32,8 @@ from typing import Any
 
 import numpy as np
 
+from lerobot_ivmc.atomic_files import atomic_write
+
 WORK_DIR = ".ivmc_collect"
 # The staging folder is renamed to this once the dataset is published, then deleted.
 TRASH_DIR = ".ivmc_collect.trash"
@@ -84,27 +86,17 @@ def attempt_path(episodes_dir: Path, attempt: int, suffix: str) -> Path:
     return episodes_dir / f"attempt_{attempt:07d}.{suffix}"
 
 
-def _atomic_write(path: Path, write: Any) -> None:
-    """Call `write(file)` on a temporary sibling, fsync it, then rename it to `path` (all or nothing)."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "wb") as file:
-        write(file)
-        file.flush()
-        os.fsync(file.fileno())
-    os.replace(tmp, path)
-
-
 def write_episode(episodes_dir: Path, episode: StagedEpisode) -> Path:
     """Stage a successful episode atomically; returns its path."""
     path = attempt_path(episodes_dir, episode.attempt, "npz")
     arrays = {f.name: np.asarray(getattr(episode, f.name)) for f in fields(episode)}
-    _atomic_write(path, lambda file: np.savez_compressed(file, **arrays))
+    atomic_write(path, lambda file: np.savez_compressed(file, **arrays))
     return path
 
 
 def write_failure(episodes_dir: Path, attempt: int) -> None:
     """Mark an attempt the expert failed, so a resumed collection skips it as the first run did."""
-    _atomic_write(attempt_path(episodes_dir, attempt, "failed"), lambda file: None)
+    atomic_write(attempt_path(episodes_dir, attempt, "failed"), lambda file: None)
 
 
 def read_episode(path: Path) -> StagedEpisode:
@@ -150,7 +142,7 @@ def scan_attempts(episodes_dir: Path) -> tuple[dict[int, Path], set[int]]:
 
 def write_json(path: Path, obj: Any) -> None:
     """Write JSON atomically."""
-    _atomic_write(path, lambda file: file.write(json.dumps(obj, indent=2, sort_keys=True).encode()))
+    atomic_write(path, lambda file: file.write(json.dumps(obj, indent=2, sort_keys=True).encode()))
 
 
 def read_json(path: Path) -> Any:

@@ -7,6 +7,7 @@ import logging
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from lerobot_ivmc.atomic_files import write_json_atomic
 from lerobot_ivmc.constants import EVAL_INFO_FILE
 from lerobot_ivmc.evaluation.detection import auroc, conformal_sweep, metrics_at_threshold, plot_detection
 from lerobot_ivmc.evaluation.traces import TRACES_FILE, load_traces
@@ -107,5 +108,5 @@ def detect(cfg: DetectionConfig) -> dict:
     result["plots"] = [
         p.name for p in plot_detection(scores, failures, traces, thresholds, sweep, output_dir, title)
     ]
-    (output_dir / DETECTION_FILE).write_text(json.dumps(result, indent=2))
+    write_json_atomic(output_dir / DETECTION_FILE, result)
     return result

@@ -3,7 +3,6 @@
 inside `IntrospectiveController` (Algorithm 1), and what the command writes: `eval_info.json` with
 `subtasks` and `aggregated_subtasks`, the uncertainty traces, Fig. 3 and the recovery videos."""
 
-import json
 import logging
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -16,6 +15,7 @@ from lerobot.scripts.lerobot_eval import eval_policy
 from lerobot.utils.constants import OBS_STATE
 from lerobot.utils.random_utils import set_seed
 
+from lerobot_ivmc.atomic_files import write_json_atomic
 from lerobot_ivmc.constants import EVAL_INFO_FILE
 from lerobot_ivmc.datasets.root_lock import EVAL_LOCK_FILE, RootLock
 from lerobot_ivmc.envs import task_env_class
@@ -195,7 +195,7 @@ def run_evaluation(cfg: IvmcEvalConfig, output_dir: Path, ignore_stored_threshol
             info["recovery"]["videos"] = write_videos(
                 video_store, controller, lengths_per_env, cfg, threshold
             )
-    (output_dir / EVAL_INFO_FILE).write_text(json.dumps(info, indent=2))
+    write_json_atomic(output_dir / EVAL_INFO_FILE, info)  # the done file: written last, whole
     return info
 
 

@@ -29,19 +29,13 @@ import shutil
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, replace
 
+from lerobot_ivmc.atomic_files import write_json_atomic
 from lerobot_ivmc.constants import EVAL_INFO_FILE, LAST_PRETRAINED_MODEL
 from lerobot_ivmc.pipeline.config import PipelineConfig
 from lerobot_ivmc.pipeline.results import RESULTS_DIR
-from lerobot_ivmc.pipeline.runner import claim_root, run_stages, study_lock, write_json_atomic
-from lerobot_ivmc.pipeline.stages import (
-    COLLECT_STAGE,
-    Stage,
-    build_stages,
-    eval_stage,
-    eval_stage_name,
-    find_stage,
-    train_stage_name,
-)
+from lerobot_ivmc.pipeline.runner import claim_root, run_stages, study_lock
+from lerobot_ivmc.pipeline.stage_names import COLLECT_STAGE, eval_stage_name, train_stage_name
+from lerobot_ivmc.pipeline.stages import Stage, build_stages, eval_stage, find_stage
 
 REGIME_FILE = "regime.json"
 PROBE_STAGE = "regime_val"

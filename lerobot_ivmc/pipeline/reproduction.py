@@ -16,7 +16,8 @@ from pathlib import Path
 
 from lerobot_ivmc.envs import TASKS
 from lerobot_ivmc.evaluation.success_by_uncertainty import most_negative_rho
-from lerobot_ivmc.pipeline.results import finite, rescue_cells
+from lerobot_ivmc.pipeline.results import finite
+from lerobot_ivmc.pipeline.tables import rescue_cells
 
 RHO_GOAL = -0.8
 WALL_TIME_GOAL_S = 3 * 3600.0

@@ -11,35 +11,32 @@ import statistics
 from dataclasses import asdict
 from pathlib import Path
 
+from lerobot_ivmc.atomic_files import write_json_atomic
 from lerobot_ivmc.evaluation.compare import EVAL_INFO_FILE, exact_mcnemar_p, paired_outcomes, rescue_record
 from lerobot_ivmc.evaluation.perception_check import DRIVERS as PERCEPTION_DRIVERS
 from lerobot_ivmc.evaluation.success_by_uncertainty import most_negative_rho
 from lerobot_ivmc.pipeline.config import POLICY_TYPES, PipelineConfig
 from lerobot_ivmc.pipeline.paper_table import PAPER_TABLE
-from lerobot_ivmc.pipeline.runner import StageResult, write_json_atomic
-from lerobot_ivmc.pipeline.stages import (
-    PERCEPTION_RECORD,
-    Stage,
+from lerobot_ivmc.pipeline.runner import StageResult
+from lerobot_ivmc.pipeline.stage_names import (
     detect_stage_name,
     eval_stage_name,
     fig3_stage_name,
-    find_stage,
     perception_stage_name,
-    stage_output,
     threshold_stage_name,
     train_stage_name,
+)
+from lerobot_ivmc.pipeline.stages import PERCEPTION_RECORD, Stage, find_stage, stage_output
+from lerobot_ivmc.pipeline.tables import (
+    METHOD_LABELS,
+    markdown_table,
+    perception_table,
+    pooled_rescue_table,
+    training_seed_table,
 )
 from lerobot_ivmc.recovery.threshold import ThresholdRecord
 
 RESULTS_DIR = "results"
-METHOD_LABELS = {
-    "vmc": "VMC",
-    "none": "BVMC",
-    "rand": "BVMC + rand",
-    "init": "BVMC + init",
-    "min_unc": "BVMC + min unc",
-    "anchor": "BVMC + anchor (beyond the paper)",
-}
 MAX_VIDEOS = 3
 
 
@@ -167,51 +164,6 @@ def pooled_rescue(fc: int, method: str, per_seed: list[dict]) -> dict | None:
     }
 
 
-def training_seed_table(rows: list[dict], summary: list[dict]) -> str:
-    """Markdown: one line per (model, #fc, training seed), then the mean +- standard deviation over seeds."""
-    subtasks = list(rows[0]["subtasks"])
-    n = rows[0]["subtasks"][subtasks[0]]["n"]
-    lines = [
-        f"| row, {n} test scenes | #fc | training seed | " + " | ".join(f"{s} [%]" for s in subtasks) + " |",
-        "|---|---|---|" + "---|" * len(subtasks),
-    ]
-    for row in rows:
-        cells = [f"{row['subtasks'][s]['rate']:.1f} +- {row['subtasks'][s]['stderr']:.1f}" for s in subtasks]
-        label = METHOD_LABELS[row["method"]] if "method" in row else row["model"]
-        lines.append(
-            f"| {label} | {row['num_fc_layers']} | {row['train_seed']} | " + " | ".join(cells) + " |"
-        )
-    for entry in summary:
-        cells = [f"{entry['subtasks'][s]['mean']:.1f} +- {entry['subtasks'][s]['std']:.1f}" for s in subtasks]
-        seeds = ", ".join(map(str, entry["train_seeds"]))
-        label = f"{entry['model']}, mean +- sd over {len(entry['train_seeds'])} seeds"
-        lines.append(f"| {label} | {entry['num_fc_layers']} | {seeds} | " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
-
-
-def pooled_rescue_table(pooled: list[dict]) -> str:
-    """Markdown: per (#fc, recovery mode) BVMC's failures over the seeds and what the mode did with them."""
-    if not pooled:
-        return ""
-    lines = [
-        "\n| recovery, over training seeds | #fc | seeds | BVMC's failures (flagged) | rescued / lost | "
-        "rescue rate | exact p |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    for entry in pooled:
-        lines.append(
-            f"| {METHOD_LABELS[entry['method']]} | {entry['num_fc_layers']} | "
-            f"{', '.join(map(str, entry['train_seeds']))} | {rescue_cells(entry)} | {entry['exact_p']:.3f} |"
-        )
-    return "\n".join(lines) + "\n"
-
-
-def rescue_cells(record: dict) -> str:
-    """A rescue record's table cells: failures (flagged) | rescued / lost | rescue rate."""
-    rate = "-" if record["rescue_rate"] is None else f"{record['rescue_rate']:.0%}"
-    return f"{record['failures']} ({record['flagged']}) | {record['rescued']} / {record['lost']} | {rate}"
-
-
 def perception_rows(cfg: PipelineConfig, stages: list[Stage], ended: set[str]) -> list[dict]:
     """Per trained policy whose check has ended: how far its estimate of the object's position is from the
     truth on validation scenes (cm), watching the expert and acting, and whether it passed the limit."""
@@ -240,27 +192,6 @@ def perception_rows(cfg: PipelineConfig, stages: list[Stage], ended: set[str]) -
     return rows
 
 
-def perception_table(rows: list[dict]) -> str:
-    """Markdown: one line per checked policy, median object and grip estimate errors in cm."""
-    first = rows[0]
-    lines = [
-        f"| policy ({first['scenes']} {first['split']} scenes, first {first['steps']} steps) | #fc | "
-        "training seed | object, watching the expert [cm] | object, acting [cm] | grip, acting [cm] | "
-        "limit [cm] |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    verdicts = {True: "within", False: "**above**", None: "no limit"}
-    for row in rows:
-        limit = row["max_object_error_cm"]
-        limit = f"{limit:g}: {verdicts[row['passed']]}" if limit else verdicts[None]
-        lines.append(
-            f"| {row['model']} | {row['num_fc_layers']} | {row['train_seed']} | "
-            f"{row['watching_expert']['object_cm']:.1f} | {row['acting']['object_cm']:.1f} | "
-            f"{row['acting']['grip_cm']:.1f} | {limit} |"
-        )
-    return "\n".join(lines) + "\n"
-
-
 def load_eval_info(folder: Path) -> dict:
     return json.loads((folder / EVAL_INFO_FILE).read_text())
 
@@ -270,42 +201,6 @@ def eval_row_stage(fc: int, method: str, train_seed: int | None = None) -> str:
     if method == "vmc":
         return eval_stage_name("vmc", fc, None, train_seed)
     return eval_stage_name("bvmc", fc, method, train_seed)
-
-
-def markdown_table(rows: list[dict]) -> str:
-    """Table I layout: measured rate +- SE per subtask, the paper's next to it."""
-    subtasks = list(rows[0]["subtasks"])
-    n = rows[0]["subtasks"][subtasks[0]]["n"]
-    head = " | ".join(f"{s} [%] (paper)" for s in subtasks)
-    lines = [
-        f"| model, {n} test scenes | #fc | {head} | recoveries (episodes) | vs BVMC: gained / lost, p | "
-        "BVMC's failures (flagged): rescue rate |",
-        "|---|---|" + "---|" * len(subtasks) + "---|---|---|",
-    ]
-    for row in rows:
-        cells = []
-        for s in subtasks:
-            m, p = row["subtasks"][s], row["paper"].get(s)
-            paper = f" ({p['rate']:.0f})" if p else ""
-            cells.append(f"{m['rate']:.1f} +- {m['stderr']:.1f}{paper}")
-        rec = f"{row['recoveries']} ({row['episodes_with_recovery']})" if "recoveries" in row else "-"
-        pair = row["paired"].get("vs_none")
-        versus = (
-            f"{pair['only_second']} / {pair['only_first']}, {pair['mcnemar_exact_p']:.2f}" if pair else "-"
-        )
-        rescue = row.get("rescue")
-        rescued = (
-            f"{rescue['failures']} ({rescue['flagged']}): "
-            + ("-" if rescue["rescue_rate"] is None else f"{rescue['rescue_rate']:.0%}")
-            if rescue
-            else "-"
-        )
-        lines.append(
-            f"| {row['label']} | {row['num_fc_layers']} | "
-            + " | ".join(cells)
-            + f" | {rec} | {versus} | {rescued} |"
-        )
-    return "\n".join(lines) + "\n"
 
 
 def finished_fcs(cfg: PipelineConfig, timings: list[StageResult]) -> list[int]:

@@ -11,8 +11,6 @@ preset; a folder of another study, or one that is not a study, is refused and le
 
 from __future__ import annotations
 
-import contextlib
-import fcntl
 import hashlib
 import json
 import os
@@ -23,6 +21,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from lerobot_ivmc.atomic_files import write_json_atomic
+from lerobot_ivmc.datasets.root_lock import RootLock
 from lerobot_ivmc.pipeline.stages import Stage, console_script
 
 MANIFEST_FILE = "pipeline.json"
@@ -49,13 +49,6 @@ class StageResult:
     wall_s: float
 
 
-def write_json_atomic(path: Path, payload: dict) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(payload, indent=2))
-    os.replace(tmp, path)
-
-
 def claim_root(root: Path, identity: dict) -> None:
     """Make `root` this study's folder, or refuse (touching nothing) if it holds something else."""
     manifest = root / MANIFEST_FILE
@@ -75,26 +68,10 @@ def claim_root(root: Path, identity: dict) -> None:
     write_json_atomic(manifest, identity)
 
 
-@contextlib.contextmanager
-def study_lock(root: Path):
-    """Hold an exclusive lock on the study folder while a pipeline runs in it (released by the kernel if
-    the process dies, so a killed run never leaves it locked); a second run is refused, naming the first."""
-    root.mkdir(parents=True, exist_ok=True)
-    fd = os.open(root / LOCK_FILE, os.O_RDWR | os.O_CREAT, 0o644)
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            holder = os.pread(fd, 200, 0).decode(errors="replace") or "another process"
-            raise OutputFolderError(
-                f"{root} is in use by a running pipeline ({holder}): wait for it to finish or stop it, then "
-                "rerun this command (it resumes)."
-            ) from None
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, f"pid {os.getpid()}".encode(), 0)
-        yield
-    finally:
-        os.close(fd)
+def study_lock(root: Path) -> RootLock:
+    """An exclusive lock on the study folder while a pipeline runs in it (the kernel releases it if the
+    process dies, so a killed run never leaves it locked); a second run is refused, naming the first."""
+    return RootLock(root, LOCK_FILE, "pipeline", "--output_dir", OutputFolderError)
 
 
 def fingerprint(stage: Stage, upstream: dict[str, str]) -> str:

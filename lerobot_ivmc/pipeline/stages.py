@@ -22,6 +22,17 @@ from lerobot_ivmc.envs import DEMO_EPISODE_STEPS
 from lerobot_ivmc.evaluation.perception_check import RECORD_FILE as PERCEPTION_RECORD
 from lerobot_ivmc.hardware import cpu_has_native_bf16
 from lerobot_ivmc.pipeline.config import POLICY_TYPES, PipelineConfig
+from lerobot_ivmc.pipeline.stage_names import (
+    COLLECT_STAGE,
+    chain_folder,
+    detect_stage_name,
+    eval_stage_name,
+    fig3_stage_name,
+    foresight_stage_name,
+    perception_stage_name,
+    threshold_stage_name,
+    train_stage_name,
+)
 
 CHECKPOINT = LAST_PRETRAINED_MODEL
 TRAIN_CONFIG = CHECKPOINT / "train_config.json"
@@ -99,6 +110,25 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
         f"--env.episode_length={cfg.episode_length}",
         *flags("env.", {"image_size": c.env.image_size, "render_style": c.env.render_style}),
     ]
+    stages = [collect_stage(cfg, data, repo_id)]
+    t = cfg.train
+    # Evaluation-like stages: sub-envs in parallel processes or not; no LeRobot eval videos (never read).
+    async_flag = f"--eval.use_async_envs={str(cfg.async_envs).lower()}"
+    eval_env_flags = [*env_flags, async_flag, "--max_episodes_rendered=0"]
+    chain = ChainFlags(data, c.dataset.repo_id or repo_id, env_flags, eval_env_flags, async_flag)
+    # One #fc after the other, so that a long study has the first #fc's rows while the next one trains; in
+    # an #fc, the main training seed's chain first, then each extra seed's.
+    for fc in t.num_fc_layers:
+        stages += chain_stages(cfg, fc, None, chain)
+        for train_seed in t.extra_seeds:
+            stages += chain_stages(cfg, fc, train_seed, chain)
+    return stages
+
+
+def collect_stage(cfg: PipelineConfig, data: Path, repo_id: str) -> Stage:
+    """`lerobot-ivmc-collect` of the study's demos into `data`."""
+    c = cfg.collect
+    task = cfg.task
     collect = [
         "lerobot-ivmc-collect",
         f"--env.task={task}",
@@ -127,19 +157,8 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
         "--progress=false",
     ]
     # The collector resumes its own staged demos: a killed collection reruns its command.
-    stages = [Stage(COLLECT_STAGE, collect, data, data / "meta" / "info.json", resume_argv=collect)]
-    t = cfg.train
-    # Evaluation-like stages: sub-envs in parallel processes or not; no LeRobot eval videos (never read).
-    async_flag = f"--eval.use_async_envs={str(cfg.async_envs).lower()}"
-    eval_env_flags = [*env_flags, async_flag, "--max_episodes_rendered=0"]
-    chain = ChainFlags(data, c.dataset.repo_id or repo_id, env_flags, eval_env_flags, async_flag)
-    # One #fc after the other, so that a long study has the first #fc's rows while the next one trains; in
-    # an #fc, the main training seed's chain first, then each extra seed's.
-    for fc in t.num_fc_layers:
-        stages += chain_stages(cfg, fc, None, chain)
-        for train_seed in t.extra_seeds:
-            stages += chain_stages(cfg, fc, train_seed, chain)
-    return stages
+    # The collector resumes its own staged demos: a killed collection reruns its command.
+    return Stage(COLLECT_STAGE, collect, data, data / "meta" / "info.json", resume_argv=collect)
 
 
 @dataclass
@@ -157,78 +176,99 @@ def chain_stages(cfg: PipelineConfig, fc: int, train_seed: int | None, chain: Ch
     """The whole chain of one training seed (None: the main one) and #fc: vmc and bvmc trained and checked,
     foresight, threshold, the Table I rows on the test scenes, the Fig. 3 episodes and detection. Stages of
     an extra seed carry its suffix (`foresight_fc1_seed2000`); those of the main seed have none."""
-    root = cfg.root.resolve()
-    folder = chain_folder(fc, train_seed)
-    seed = f"--seed={cfg.seed}"
     stages = []
     for training in train_stages(cfg, fc, chain.data, chain.repo_id, train_seed):
         stages += [training, perception_stage(cfg, training, chain.env_flags, gate=train_seed is None)]
+    foresight = foresight_stage(cfg, fc, train_seed, chain)
+    threshold = threshold_stage(cfg, fc, train_seed, chain, foresight)
+    stages += [foresight, threshold]
+    stages += row_stages(cfg, fc, train_seed, chain, threshold)
+    stages.append(detect_stage(cfg, fc, train_seed, stages, threshold))
+    return stages
+
+
+def foresight_stage(cfg: PipelineConfig, fc: int, train_seed: int | None, chain: ChainFlags) -> Stage:
+    """`lerobot-ivmc-foresight`: the chain's bvmc with its foresight head distilled."""
+    root = cfg.root.resolve()
+    folder = chain_folder(fc, train_seed)
     bvmc = root / "train" / f"bvmc_{folder}" / CHECKPOINT
     foresight = root / "foresight" / folder
-    threshold = root / "threshold" / folder
     f = cfg.foresight
     distillation = asdict(f.foresight)
     # At 0 (the paper's plain samples) the flag is left out, so older studies keep their fingerprints.
     if distillation["action_noise"] == 0:
         del distillation["action_noise"]
-    stages.append(
-        Stage(
-            foresight_stage_name(fc, train_seed),
-            [
-                "lerobot-ivmc-foresight",
-                f"--policy.path={bvmc}",
-                *chain.env_flags,
-                *flags("foresight.", distillation),
-                f"--eval.batch_size={f.batch_size}",
-                f"--eval.n_episodes={f.batch_size}",
-                chain.async_flag,
-                seed,
-                f"--output_dir={foresight}",
-            ],
-            output=foresight,
-            done_file=foresight / PRETRAINED_MODEL_DIR / "model.safetensors",
-            depends=[train_stage_name("bvmc", fc, train_seed)],
-        )
+    return Stage(
+        foresight_stage_name(fc, train_seed),
+        [
+            "lerobot-ivmc-foresight",
+            f"--policy.path={bvmc}",
+            *chain.env_flags,
+            *flags("foresight.", distillation),
+            f"--eval.batch_size={f.batch_size}",
+            f"--eval.n_episodes={f.batch_size}",
+            chain.async_flag,
+            f"--seed={cfg.seed}",
+            f"--output_dir={foresight}",
+        ],
+        output=foresight,
+        done_file=foresight / PRETRAINED_MODEL_DIR / "model.safetensors",
+        depends=[train_stage_name("bvmc", fc, train_seed)],
     )
+
+
+def threshold_stage(
+    cfg: PipelineConfig, fc: int, train_seed: int | None, chain: ChainFlags, foresight: Stage
+) -> Stage:
+    """`lerobot-ivmc-threshold` on validation scenes: the checkpoint every BVMC row evaluates."""
+    threshold = cfg.root.resolve() / "threshold" / chain_folder(fc, train_seed)
     th = cfg.threshold
-    stages.append(
-        Stage(
-            threshold_stage_name(fc, train_seed),
-            [
-                "lerobot-ivmc-threshold",
-                f"--policy.path={foresight / PRETRAINED_MODEL_DIR}",
-                *chain.eval_env_flags,
-                "--env.split=val",
-                f"--eval.n_episodes={th.n_episodes}",
-                f"--eval.batch_size={th.batch_size}",
-                f"--method={th.method}",
-                f"--alpha={th.alpha}",
-                seed,
-                f"--output_dir={threshold}",
-            ],
-            output=threshold,
-            done_file=threshold / PRETRAINED_MODEL_DIR / "recovery_threshold.json",
-            depends=[foresight_stage_name(fc, train_seed)],
-        )
+    return Stage(
+        threshold_stage_name(fc, train_seed),
+        [
+            "lerobot-ivmc-threshold",
+            f"--policy.path={foresight.output / PRETRAINED_MODEL_DIR}",
+            *chain.eval_env_flags,
+            "--env.split=val",
+            f"--eval.n_episodes={th.n_episodes}",
+            f"--eval.batch_size={th.batch_size}",
+            f"--method={th.method}",
+            f"--alpha={th.alpha}",
+            f"--seed={cfg.seed}",
+            f"--output_dir={threshold}",
+        ],
+        output=threshold,
+        done_file=threshold / PRETRAINED_MODEL_DIR / "recovery_threshold.json",
+        depends=[foresight.name],
     )
+
+
+def row_stages(
+    cfg: PipelineConfig, fc: int, train_seed: int | None, chain: ChainFlags, threshold: Stage
+) -> list[Stage]:
+    """The Table I rows on the test scenes (VMC, BVMC with each recovery mode) and, when it needs more
+    episodes than a row, the Fig. 3 evaluation."""
+    root = cfg.root.resolve()
+    folder = chain_folder(fc, train_seed)
+    seed = f"--seed={cfg.seed}"
+    bvmc = threshold.output / PRETRAINED_MODEL_DIR
     rows = [
         ("vmc", root / "train" / f"vmc_{folder}" / CHECKPOINT, None, train_stage_name("vmc", fc, train_seed))
     ]
-    rows += [
-        ("bvmc", threshold / PRETRAINED_MODEL_DIR, mode, threshold_stage_name(fc, train_seed))
-        for mode in cfg.recovery_modes
-    ]
+    rows += [("bvmc", bvmc, mode, threshold.name) for mode in cfg.recovery_modes]
+    stages = []
     for policy_type, checkpoint, mode, source in rows:
         name = eval_stage_name(policy_type, fc, mode, train_seed)
         out = root / "eval" / name.removeprefix("eval_")
+        episodes = cfg.eval
         stages.append(
             eval_stage(
                 name,
                 checkpoint,
                 out,
                 chain.eval_env_flags,
-                cfg.eval.n_episodes,
-                cfg.eval.batch_size,
+                episodes.n_episodes,
+                episodes.batch_size,
                 seed,
                 mode,
                 source,
@@ -237,67 +277,42 @@ def chain_stages(cfg: PipelineConfig, fc: int, train_seed: int | None, chain: Ch
     fig3 = fig3_stage_name(cfg, fc, train_seed)
     if fig3 != eval_stage_name("bvmc", fc, "none", train_seed):
         out = root / "fig3" / folder
+        episodes = cfg.fig3
         stages.append(
             eval_stage(
                 fig3,
-                threshold / PRETRAINED_MODEL_DIR,
+                bvmc,
                 out,
                 chain.eval_env_flags,
-                cfg.fig3.n_episodes,
-                cfg.fig3.batch_size,
+                episodes.n_episodes,
+                episodes.batch_size,
                 seed,
                 "none",
-                threshold_stage_name(fc, train_seed),
+                threshold.name,
             )
         )
-    fig3_out = stage_output(stages, fig3)
-    detection = root / "detection" / folder
-    stages.append(
-        Stage(
-            detect_stage_name(fc, train_seed),
-            [
-                "lerobot-ivmc-detect",
-                f"--eval_dir={fig3_out}",
-                f"--threshold_path={threshold / PRETRAINED_MODEL_DIR}",
-                f"--alpha={cfg.threshold.alpha}",
-                f"--output_dir={detection}",
-            ],
-            output=detection,
-            done_file=detection / "detection.json",
-            depends=[fig3, threshold_stage_name(fc, train_seed)],
-        )
-    )
     return stages
 
 
-def seed_suffix(train_seed: int | None) -> str:
-    """The name suffix of an extra training seed's stages and folders (none for the main seed)."""
-    return "" if train_seed is None else f"_seed{train_seed}"
-
-
-# Every stage's name, spelt once: the runner's records and logs, the results and the rule find stages by them.
-COLLECT_STAGE = "collect"
-
-
-def chain_folder(fc: int, train_seed: int | None = None) -> str:
-    """`fc1`, or `fc1_seed2000` for an extra training seed: the folder of a chain's stages."""
-    return f"fc{fc}{seed_suffix(train_seed)}"
-
-
-def train_stage_name(policy_type: str, fc: int, train_seed: int | None = None) -> str:
-    return f"train_{policy_type}_{chain_folder(fc, train_seed)}"
-
-
-def foresight_stage_name(fc: int, train_seed: int | None = None) -> str:
-    return f"foresight_{chain_folder(fc, train_seed)}"
-
-
-def threshold_stage_name(fc: int, train_seed: int | None = None) -> str:
-    return f"threshold_{chain_folder(fc, train_seed)}"
-
-
-def detect_stage_name(fc: int, train_seed: int | None = None) -> str:
-    return f"detect_{chain_folder(fc, train_seed)}"
+def detect_stage(
+    cfg: PipelineConfig, fc: int, train_seed: int | None, chain_so_far: list[Stage], threshold: Stage
+) -> Stage:
+    """`lerobot-ivmc-detect` on the Fig. 3 episodes with the chain's threshold."""
+    fig3 = fig3_stage_name(cfg, fc, train_seed)
+    detection = cfg.root.resolve() / "detection" / chain_folder(fc, train_seed)
+    return Stage(
+        detect_stage_name(fc, train_seed),
+        [
+            "lerobot-ivmc-detect",
+            f"--eval_dir={stage_output(chain_so_far, fig3)}",
+            f"--threshold_path={threshold.output / PRETRAINED_MODEL_DIR}",
+            f"--alpha={cfg.threshold.alpha}",
+            f"--output_dir={detection}",
+        ],
+        output=detection,
+        done_file=detection / "detection.json",
+        depends=[fig3, threshold.name],
+    )
 
 
 def train_stages(
@@ -366,11 +381,6 @@ def resolved_policy_config(policy_type: str, fc: int, given: dict) -> dict:
     return json.loads(json.dumps(own, default=str))
 
 
-def perception_stage_name(training: str) -> str:
-    """`check_vmc_fc1` for `train_vmc_fc1` (and `check_bvmc_fc1_seed2000` for `train_bvmc_fc1_seed2000`)."""
-    return "check_" + training.removeprefix("train_")
-
-
 def perception_stage(cfg: PipelineConfig, training: Stage, env_flags: list[str], gate: bool) -> Stage:
     """`lerobot-ivmc-perception` on validation scenes right after `training`: whether the policy misjudges
     the object's position by more than `perception.max_object_error_cm`. With `gate` (the main training
@@ -397,23 +407,6 @@ def perception_stage(cfg: PipelineConfig, training: Stage, env_flags: list[str],
         done_file=out / PERCEPTION_RECORD,
         depends=[training.name],
     )
-
-
-def eval_stage_name(policy_type: str, fc: int, mode: str | None, train_seed: int | None = None) -> str:
-    """`eval_vmc_fc1`, `eval_bvmc_fc1_min_unc`, ... (`eval_bvmc_fc1_min_unc_seed2000` of an extra seed)."""
-    return f"eval_{policy_type}_fc{fc}" + (f"_{mode}" if mode else "") + seed_suffix(train_seed)
-
-
-def fig3_stage_name(cfg: PipelineConfig, fc: int, train_seed: int | None = None) -> str:
-    """The stage whose episodes give Fig. 3 and the detection metrics: BVMC without recovery on test
-    scenes; the Table I row itself when it has as many episodes, else a stage of its own."""
-    same = "none" in cfg.recovery_modes and (cfg.fig3.n_episodes, cfg.fig3.batch_size) == (
-        cfg.eval.n_episodes,
-        cfg.eval.batch_size,
-    )
-    if same:
-        return eval_stage_name("bvmc", fc, "none", train_seed)
-    return f"fig3_{chain_folder(fc, train_seed)}"
 
 
 def find_stage(stages: list[Stage], name: str) -> Stage:

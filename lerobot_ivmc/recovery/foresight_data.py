@@ -13,7 +13,6 @@ records an episode twice; `spec.json` refuses a resume with other settings.
 from __future__ import annotations
 
 import json
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,6 +22,7 @@ from lerobot.scripts.lerobot_eval import rollout
 from torch import Tensor
 from tqdm import tqdm
 
+from lerobot_ivmc.atomic_files import atomic_write, write_json_atomic
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
 from lerobot_ivmc.recovery.candidates import widen_candidates
 from lerobot_ivmc.recovery.rollout_wrapper import BVMCRolloutWrapper
@@ -125,17 +125,13 @@ class ShardWriter:
                     "Rerun with the stored settings to resume it, or choose another --output_dir."
                 )
         else:
-            tmp = spec_path.with_suffix(".tmp")
-            tmp.write_text(json.dumps(self.spec, indent=2))
-            os.replace(tmp, spec_path)
+            write_json_atomic(spec_path, self.spec)
 
     def path(self, index: int) -> Path:
         return self.root / f"shard_{index:05d}.npz"
 
     def write(self, index: int, arrays: dict[str, np.ndarray]) -> None:
-        tmp = self.root / f".shard_{index:05d}.tmp.npz"
-        np.savez(tmp, **arrays)
-        os.replace(tmp, self.path(index))
+        atomic_write(self.path(index), lambda file: np.savez(file, **arrays))
 
     def missing(self, num_shards: int) -> list[int]:
         return [i for i in range(num_shards) if not self.path(i).exists()]

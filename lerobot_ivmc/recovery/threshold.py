@@ -11,6 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
+from lerobot_ivmc.atomic_files import write_json_atomic
+
 THRESHOLD_FILE = "recovery_threshold.json"
 DEFAULT_WINDOW = 20  # the paper: "a sliding window of 20 frames best avoids noisy peaks"
 # How a threshold is picked: the paper's argmax, or split conformal on the successful episodes.
@@ -148,7 +150,7 @@ class ThresholdRecord:
 
     def save(self, folder: Path) -> Path:
         path = Path(folder) / THRESHOLD_FILE
-        path.write_text(json.dumps(asdict(self), indent=2))
+        write_json_atomic(path, asdict(self))
         return path
 
     @classmethod

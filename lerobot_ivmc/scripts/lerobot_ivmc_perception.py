@@ -18,12 +18,12 @@ the verdict), so a pipeline stops there.
 """
 
 # No `from __future__ import annotations`: LeRobot's parser.wrap reads the config class from the annotation.
-import json
 import sys
 from pathlib import Path
 
 from lerobot.configs import parser
 
+from lerobot_ivmc.atomic_files import write_json_atomic
 from lerobot_ivmc.cli import cli_main
 from lerobot_ivmc.evaluation.perception_check import (
     DRIVERS,
@@ -39,7 +39,7 @@ def perception_main(cfg: PerceptionCheckConfig) -> dict:
     record = check_perception(cfg)
     out = Path(cfg.output_dir)
     out.mkdir(parents=True, exist_ok=True)
-    (out / RECORD_FILE).write_text(json.dumps(record, indent=1))
+    write_json_atomic(out / RECORD_FILE, record, indent=1)
     for driver in DRIVERS:
         m = record[driver]
         print(

@@ -246,7 +246,9 @@ def test_a_folder_of_another_study_or_of_no_study_is_refused_untouched(tmp_path:
 def test_a_second_run_on_a_folder_in_use_is_refused_until_the_first_ends(tmp_path: Path) -> None:
     root = tmp_path / "study"
     with study_lock(root):
-        with pytest.raises(OutputFolderError, match=rf"in use by a running pipeline \(pid {os.getpid()}\)"):
+        with pytest.raises(
+            OutputFolderError, match=rf"being written by another pipeline \(pid {os.getpid()} "
+        ):
             with study_lock(root):
                 pass
     with study_lock(root):  # released when the first run ends (or dies): the next one takes it

@@ -1,0 +1,115 @@
+"""The study's tables in markdown: Table I's rows with the paper's values, the training seeds' rows and
+pooled rescue, the perception checks (`results.py` gathers what they show)."""
+
+from __future__ import annotations
+
+METHOD_LABELS = {
+    "vmc": "VMC",
+    "none": "BVMC",
+    "rand": "BVMC + rand",
+    "init": "BVMC + init",
+    "min_unc": "BVMC + min unc",
+    "anchor": "BVMC + anchor (beyond the paper)",
+}
+
+
+def training_seed_table(rows: list[dict], summary: list[dict]) -> str:
+    """Markdown: one line per (model, #fc, training seed), then the mean +- standard deviation over seeds."""
+    subtasks = list(rows[0]["subtasks"])
+    n = rows[0]["subtasks"][subtasks[0]]["n"]
+    lines = [
+        f"| row, {n} test scenes | #fc | training seed | " + " | ".join(f"{s} [%]" for s in subtasks) + " |",
+        "|---|---|---|" + "---|" * len(subtasks),
+    ]
+    for row in rows:
+        cells = [f"{row['subtasks'][s]['rate']:.1f} +- {row['subtasks'][s]['stderr']:.1f}" for s in subtasks]
+        label = METHOD_LABELS[row["method"]] if "method" in row else row["model"]
+        lines.append(
+            f"| {label} | {row['num_fc_layers']} | {row['train_seed']} | " + " | ".join(cells) + " |"
+        )
+    for entry in summary:
+        cells = [f"{entry['subtasks'][s]['mean']:.1f} +- {entry['subtasks'][s]['std']:.1f}" for s in subtasks]
+        seeds = ", ".join(map(str, entry["train_seeds"]))
+        label = f"{entry['model']}, mean +- sd over {len(entry['train_seeds'])} seeds"
+        lines.append(f"| {label} | {entry['num_fc_layers']} | {seeds} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def pooled_rescue_table(pooled: list[dict]) -> str:
+    """Markdown: per (#fc, recovery mode) BVMC's failures over the seeds and what the mode did with them."""
+    if not pooled:
+        return ""
+    lines = [
+        "\n| recovery, over training seeds | #fc | seeds | BVMC's failures (flagged) | rescued / lost | "
+        "rescue rate | exact p |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for entry in pooled:
+        lines.append(
+            f"| {METHOD_LABELS[entry['method']]} | {entry['num_fc_layers']} | "
+            f"{', '.join(map(str, entry['train_seeds']))} | {rescue_cells(entry)} | {entry['exact_p']:.3f} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def rescue_cells(record: dict) -> str:
+    """A rescue record's table cells: failures (flagged) | rescued / lost | rescue rate."""
+    rate = "-" if record["rescue_rate"] is None else f"{record['rescue_rate']:.0%}"
+    return f"{record['failures']} ({record['flagged']}) | {record['rescued']} / {record['lost']} | {rate}"
+
+
+def perception_table(rows: list[dict]) -> str:
+    """Markdown: one line per checked policy, median object and grip estimate errors in cm."""
+    first = rows[0]
+    lines = [
+        f"| policy ({first['scenes']} {first['split']} scenes, first {first['steps']} steps) | #fc | "
+        "training seed | object, watching the expert [cm] | object, acting [cm] | grip, acting [cm] | "
+        "limit [cm] |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    verdicts = {True: "within", False: "**above**", None: "no limit"}
+    for row in rows:
+        limit = row["max_object_error_cm"]
+        limit = f"{limit:g}: {verdicts[row['passed']]}" if limit else verdicts[None]
+        lines.append(
+            f"| {row['model']} | {row['num_fc_layers']} | {row['train_seed']} | "
+            f"{row['watching_expert']['object_cm']:.1f} | {row['acting']['object_cm']:.1f} | "
+            f"{row['acting']['grip_cm']:.1f} | {limit} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def markdown_table(rows: list[dict]) -> str:
+    """Table I layout: measured rate +- SE per subtask, the paper's next to it."""
+    subtasks = list(rows[0]["subtasks"])
+    n = rows[0]["subtasks"][subtasks[0]]["n"]
+    head = " | ".join(f"{s} [%] (paper)" for s in subtasks)
+    lines = [
+        f"| model, {n} test scenes | #fc | {head} | recoveries (episodes) | vs BVMC: gained / lost, p | "
+        "BVMC's failures (flagged): rescue rate |",
+        "|---|---|" + "---|" * len(subtasks) + "---|---|---|",
+    ]
+    for row in rows:
+        cells = []
+        for s in subtasks:
+            m, p = row["subtasks"][s], row["paper"].get(s)
+            paper = f" ({p['rate']:.0f})" if p else ""
+            cells.append(f"{m['rate']:.1f} +- {m['stderr']:.1f}{paper}")
+        rec = f"{row['recoveries']} ({row['episodes_with_recovery']})" if "recoveries" in row else "-"
+        pair = row["paired"].get("vs_none")
+        versus = (
+            f"{pair['only_second']} / {pair['only_first']}, {pair['mcnemar_exact_p']:.2f}" if pair else "-"
+        )
+        rescue = row.get("rescue")
+        rescued = (
+            f"{rescue['failures']} ({rescue['flagged']}): "
+            + ("-" if rescue["rescue_rate"] is None else f"{rescue['rescue_rate']:.0%}")
+            if rescue
+            else "-"
+        )
+        lines.append(
+            f"| {row['label']} | {row['num_fc_layers']} | "
+            + " | ".join(cells)
+            + f" | {rec} | {versus} | {rescued} |"
+        )
+    return "\n".join(lines) + "\n"
