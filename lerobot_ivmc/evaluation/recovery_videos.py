@@ -102,6 +102,12 @@ def trace_panel(episode: dict, threshold: float, width: int, height: int) -> tup
     if np.isfinite(threshold):
         ax.axhline(threshold, color="tab:red", ls="--", lw=1, label="threshold")
     ax.set_xlim(0, max(len(steps), 1))
+    # Headroom above the higher of the trace and the threshold (the trace ends near it when recovery fires),
+    # so that the threshold line is not drawn on the frame's edge under the legend.
+    finite = np.asarray(episode["window_sum"], dtype=float)
+    finite = finite[np.isfinite(finite)]
+    top = max(float(finite.max()) if finite.size else 0.0, threshold if np.isfinite(threshold) else 0.0)
+    ax.set_ylim(0, 1.5 * top if top > 0 else 1.0)
     ax.set_xlabel("step", fontsize=6)
     ax.tick_params(labelsize=6)
     ax.legend(fontsize=5, loc="upper left", ncol=3)
