@@ -34,8 +34,8 @@ from lerobot_ivmc.constants import EVAL_INFO_FILE, LAST_PRETRAINED_MODEL
 from lerobot_ivmc.pipeline.config import PipelineConfig
 from lerobot_ivmc.pipeline.results import RESULTS_DIR
 from lerobot_ivmc.pipeline.runner import claim_root, run_stages, study_lock
-from lerobot_ivmc.pipeline.stage_names import COLLECT_STAGE, eval_stage_name, train_stage_name
-from lerobot_ivmc.pipeline.stages import Stage, build_stages, eval_stage, find_stage
+from lerobot_ivmc.pipeline.stage_names import COLLECT_STAGE, train_stage_name
+from lerobot_ivmc.pipeline.stages import Stage, build_stages, chain_flags, eval_stage, find_stage
 
 REGIME_FILE = "regime.json"
 PROBE_STAGE = "regime_val"
@@ -91,16 +91,13 @@ def probe_stages(cfg: PipelineConfig) -> list[Stage]:
     stages = build_stages(cfg)
     fc = cfg.train.num_fc_layers[0]
     training = find_stage(stages, train_stage_name("bvmc", fc))
-    flags = find_stage(stages, eval_stage_name("vmc", fc, None)).argv
-    env_flags = [flag for flag in flags if flag.startswith(("--env.", "--eval.use_async", "--max_episodes"))]
-    env_flags = [flag for flag in env_flags if not flag.startswith("--env.split=")]
     out = cfg.root.resolve() / PROBE_STAGE
     r = cfg.regime
     probe = eval_stage(
         PROBE_STAGE,
         training.output / LAST_PRETRAINED_MODEL,
         out,
-        env_flags,
+        chain_flags(cfg).eval_env_flags,
         r.n_episodes,
         r.batch_size,
         f"--seed={cfg.seed}",
@@ -141,6 +138,7 @@ def run_regime(cfg: PipelineConfig, run_study: Callable[[PipelineConfig], dict],
             chosen = choose_budget(probes, low, high, exhausted=index == len(tried) - 1)
             if chosen is not None:
                 break
+        chosen_study = budget_config(cfg, chosen)
         record = {
             "rule": "first budget with validation failure rate in the range; past it, the nearer of the "
             "last two; none reached, the smallest",
@@ -149,12 +147,11 @@ def run_regime(cfg: PipelineConfig, run_study: Callable[[PipelineConfig], dict],
             "probes": [{**asdict(p), "failure_rate": p.failure_rate} for p in probes],
             "chosen_demos": chosen,
             "range_reached": any(low <= p.failure_rate <= high for p in probes if p.demos == chosen),
-            "study": str(budget_config(cfg, chosen).root),
+            "study": str(chosen_study.root),
         }
         write_json_atomic(root / REGIME_FILE, record)
         rates = ", ".join(f"{p.demos}: {p.failure_rate:.0%}" for p in probes)
         log(f"Regime: {chosen} demos chosen (validation failure rate by demos: {rates})")
-        study = budget_config(cfg, chosen)
-        results = run_study(study)
-    shutil.copyfile(root / REGIME_FILE, study.root / RESULTS_DIR / REGIME_FILE)
+        results = run_study(chosen_study)
+    shutil.copyfile(root / REGIME_FILE, chosen_study.root / RESULTS_DIR / REGIME_FILE)
     return {**results, "regime": record}

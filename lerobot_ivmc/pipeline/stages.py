@@ -98,29 +98,13 @@ def flags(prefix: str, values: dict) -> list[str]:
 
 def build_stages(cfg: PipelineConfig) -> list[Stage]:
     """The ordered stages of the study of `cfg.task` in `cfg.root`."""
-    root = cfg.root.resolve()
-    task = cfg.task
-    data = root / "data"
-    repo_id = f"local/ivmc_{task}"
-    c = cfg.collect
-    # The camera of the demos is the camera of every later stage: the policies are refused in another.
-    env_flags = [
-        "--env.type=ivmc",
-        f"--env.task={task}",
-        f"--env.episode_length={cfg.episode_length}",
-        *flags("env.", {"image_size": c.env.image_size, "render_style": c.env.render_style}),
-    ]
-    stages = [collect_stage(cfg, data, repo_id)]
-    t = cfg.train
-    # Evaluation-like stages: sub-envs in parallel processes or not; no LeRobot eval videos (never read).
-    async_flag = f"--eval.use_async_envs={str(cfg.async_envs).lower()}"
-    eval_env_flags = [*env_flags, async_flag, "--max_episodes_rendered=0"]
-    chain = ChainFlags(data, c.dataset.repo_id or repo_id, env_flags, eval_env_flags, async_flag)
+    chain = chain_flags(cfg)
+    stages = [collect_stage(cfg, chain.data, chain.repo_id)]
     # One #fc after the other, so that a long study has the first #fc's rows while the next one trains; in
     # an #fc, the main training seed's chain first, then each extra seed's.
-    for fc in t.num_fc_layers:
+    for fc in cfg.train.num_fc_layers:
         stages += chain_stages(cfg, fc, None, chain)
-        for train_seed in t.extra_seeds:
+        for train_seed in cfg.train.extra_seeds:
             stages += chain_stages(cfg, fc, train_seed, chain)
     return stages
 
@@ -157,7 +141,6 @@ def collect_stage(cfg: PipelineConfig, data: Path, repo_id: str) -> Stage:
         "--progress=false",
     ]
     # The collector resumes its own staged demos: a killed collection reruns its command.
-    # The collector resumes its own staged demos: a killed collection reruns its command.
     return Stage(COLLECT_STAGE, collect, data, data / "meta" / "info.json", resume_argv=collect)
 
 
@@ -170,6 +153,25 @@ class ChainFlags:
     env_flags: list[str]
     eval_env_flags: list[str]
     async_flag: str
+
+
+def chain_flags(cfg: PipelineConfig) -> ChainFlags:
+    """The study's demos (`<root>/data`) and the env flags of its stages."""
+    c = cfg.collect
+    # The camera of the demos is the camera of every later stage: the policies are refused in another.
+    env_flags = [
+        "--env.type=ivmc",
+        f"--env.task={cfg.task}",
+        f"--env.episode_length={cfg.episode_length}",
+        *flags("env.", {"image_size": c.env.image_size, "render_style": c.env.render_style}),
+    ]
+    # Evaluation-like stages: sub-envs in parallel processes or not; no LeRobot eval videos (never read).
+    async_flag = f"--eval.use_async_envs={str(cfg.async_envs).lower()}"
+    eval_env_flags = [*env_flags, async_flag, "--max_episodes_rendered=0"]
+    data = cfg.root.resolve() / "data"
+    return ChainFlags(
+        data, c.dataset.repo_id or f"local/ivmc_{cfg.task}", env_flags, eval_env_flags, async_flag
+    )
 
 
 def chain_stages(cfg: PipelineConfig, fc: int, train_seed: int | None, chain: ChainFlags) -> list[Stage]:

@@ -122,6 +122,7 @@ class WaypointMoves(Manoeuvre):
             (3,).
         reset_memory: hand back with a fresh memory (else with the memory as it is).
         then_carry: once over, the controller carries the object to the anchored goal if it holds it.
+        then_push: once over, the controller may push the object this many legs more.
     """
 
     def __init__(
@@ -133,6 +134,7 @@ class WaypointMoves(Manoeuvre):
         target: np.ndarray,
         reset_memory: bool,
         then_carry: bool = False,
+        then_push: int = 0,
     ):
         self.waypoints = list(waypoints)
         self.target = target
@@ -141,6 +143,7 @@ class WaypointMoves(Manoeuvre):
         self.phase = phase
         self.reset_memory = reset_memory
         self.then_carry = then_carry
+        self.then_push = then_push
         self.held = 0
         self.finished = False
 
@@ -252,9 +255,9 @@ def push_to_goal(
         for a, b in zip(waypoints, waypoints[1:], strict=False)
     )
     needed += int(np.ceil(np.linalg.norm(waypoints[0].position - grip) / ANCHOR_SPEED))
-    moves = WaypointMoves(waypoints, needed + steps, tolerance, PUSH_TO_GOAL, pushed_to, reset_memory=True)
-    moves.then_push = legs - 1
-    return moves
+    return WaypointMoves(
+        waypoints, needed + steps, tolerance, PUSH_TO_GOAL, pushed_to, reset_memory=True, then_push=legs - 1
+    )
 
 
 def on_goal(obj: np.ndarray, goal: np.ndarray) -> bool:
