@@ -21,6 +21,8 @@ from lerobot_ivmc.recovery.threshold import THRESHOLD_METHODS, conformal_min_suc
 
 # Shipped inside the package, so `--preset` works wherever the plugin is installed.
 PRESETS_DIR = Path(__file__).resolve().parent / "presets"
+EXECUTORS = ("local", "ray")
+TRAIN_DEVICES = ("auto", "cpu", "cuda")
 # The BVMC rows of Table I: alone and with the paper's three recovery modes, then anchor (beyond the paper).
 DEFAULT_MODES = ("none", "rand", "init", "min_unc", "anchor")
 POLICY_TYPES = ("vmc", "bvmc")
@@ -58,9 +60,13 @@ class TrainStageConfig:
     Args:
         num_fc_layers: the #fc values of Table I to train and evaluate (the paper: 1 and 2).
         steps, batch_size, save_freq, seed: as `lerobot-train`'s flags.
-        bf16: train under bf16 autocast (`ACCELERATE_MIXED_PRECISION=bf16`) where the CPU runs bf16
-            natively (AVX512-BF16 or AMX); elsewhere bf16 is emulated, slower than fp32, and the study
-            trains in fp32 (the stage's command line in its log shows which).
+        bf16: train under bf16 autocast (`ACCELERATE_MIXED_PRECISION=bf16`) on a GPU, and on a CPU that
+            runs bf16 natively (AVX512-BF16 or AMX); on other CPUs bf16 is emulated, slower than fp32, and
+            the study trains in fp32 (the stage's command line in its log shows which). A GPU without bf16
+            (before NVIDIA's Ampere) needs --train.bf16=false.
+        device: where the trainings run: "cpu", "cuda", or "auto": CUDA where it is present (this machine,
+            or with the ray executor a GPU in the cluster), else the CPU. Like the precision, the device
+            enters a training's fingerprint: a study begun on one keeps its trainings only on the same.
         policy: policy fields passed as `--policy.<name>=`.
         extra_seeds: further training seeds, for the spread of training: each gets the whole chain of
             every #fc (vmc and bvmc trained and checked, its own foresight head and threshold, every Table
@@ -78,6 +84,7 @@ class TrainStageConfig:
     save_freq: int = 4000
     seed: int = 1000
     bf16: bool = True
+    device: str = "auto"
     policy: TrainPolicyConfig = field(default_factory=TrainPolicyConfig)
     extra_seeds: list[int] = field(default_factory=list)
 
@@ -150,6 +157,32 @@ class RegimeConfig:
 
 
 @dataclass
+class ExecutorConfig:
+    """Where the stages run. None of it enters a stage's fingerprint: a study begun with one executor
+    resumes with the other.
+
+    Args:
+        type: "local": one stage after the other on this machine (the default); "ray": each stage as a Ray
+            task once the stages it reads (and the perception check that gates it) have finished, side by
+            side where the cluster's resources allow (`pip install 'lerobot_policy_ivmc[ray]'`).
+        address: the Ray cluster to join ("auto", "ray://<head>:10001"); None starts a local one on this
+            machine. The study's folder must be on a filesystem every node of the cluster sees.
+        num_cpus: CPUs of the local Ray cluster (None: all of this machine's).
+        train_cpus: CPUs a training takes (its torch threads); at most the CPUs of the cluster's largest
+            node.
+        train_gpus: share of one GPU a training on CUDA takes (0.5: two trainings share a GPU).
+        eval_cpus: CPUs each perception check, foresight, threshold, evaluation and detection takes.
+    """
+
+    type: str = "local"
+    address: str | None = None
+    num_cpus: int | None = None
+    train_cpus: float = 2.0
+    train_gpus: float = 0.5
+    eval_cpus: float = 1.0
+
+
+@dataclass
 class PipelineConfig:
     """The whole study for one task.
 
@@ -171,6 +204,7 @@ class PipelineConfig:
             beyond the paper, "anchor" (a policy trained with the goal head).
         fig3: the Fig. 3 evaluation (BVMC without recovery, many test episodes) and detection metrics.
         regime: the data-budget rule (off unless `--regime.demo_budgets` lists budgets).
+        executor: where the stages run: one after the other here (local), or side by side on Ray.
         async_envs: foresight, threshold and evaluation stages step each sub-env in its own process
             (`--eval.use_async_envs`; the same episodes as in one process). Off by default: on 2 cores, 10
             sub-env processes evaluated 100 pick_place episodes in 118.7 s against 107.2 s in one process
@@ -191,6 +225,7 @@ class PipelineConfig:
     recovery_modes: list[str] = field(default_factory=lambda: list(DEFAULT_MODES))
     fig3: EpisodesConfig = field(default_factory=lambda: EpisodesConfig(n_episodes=800))
     regime: RegimeConfig = field(default_factory=RegimeConfig)
+    executor: ExecutorConfig = field(default_factory=ExecutorConfig)
     async_envs: bool = False
 
     def __post_init__(self) -> None:
@@ -235,6 +270,7 @@ class PipelineConfig:
             )
         self.validate_stage_values()
         self.validate_regime()
+        self.validate_executor()
         for name, value in (
             ("train.steps", self.train.steps),
             ("train.batch_size", self.train.batch_size),
@@ -271,6 +307,31 @@ class PipelineConfig:
         if not 0 < r.batch_size <= r.n_episodes:
             raise ValueError(
                 f"--regime.batch_size must be in [1, --regime.n_episodes={r.n_episodes}], got {r.batch_size}."
+            )
+
+    def validate_executor(self) -> None:
+        """Refuse executors, devices and resource shares that cannot run."""
+        e = self.executor
+        if e.type not in EXECUTORS:
+            raise ValueError(f"--executor.type must be one of {EXECUTORS}, got {e.type!r}.")
+        if self.train.device not in TRAIN_DEVICES:
+            raise ValueError(f"--train.device must be one of {TRAIN_DEVICES}, got {self.train.device!r}.")
+        if e.type == "local" and (e.address is not None or e.num_cpus is not None):
+            raise ValueError(
+                "--executor.address and --executor.num_cpus set the Ray cluster: add --executor.type=ray or "
+                "drop them."
+            )
+        if e.num_cpus is not None and e.num_cpus < 1:
+            raise ValueError(f"--executor.num_cpus must be >= 1, got {e.num_cpus}.")
+        if e.train_cpus <= 0 or e.eval_cpus <= 0:
+            raise ValueError(
+                f"--executor.train_cpus and --executor.eval_cpus must be positive, got {e.train_cpus} and "
+                f"{e.eval_cpus}."
+            )
+        if not 0 < e.train_gpus <= 1:
+            raise ValueError(
+                f"--executor.train_gpus is the share of one GPU a training takes, in (0, 1]; got "
+                f"{e.train_gpus}."
             )
 
     def validate_stage_values(self) -> None:

@@ -11,19 +11,24 @@ preset; a folder of another study, or one that is not a study, is refused and le
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
 import shutil
+import signal
 import subprocess
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Protocol
 
 from lerobot_ivmc.atomic_files import write_json_atomic
 from lerobot_ivmc.datasets.root_lock import RootLock
-from lerobot_ivmc.pipeline.stages import Stage, console_script
+from lerobot_ivmc.pipeline import stage_process
+from lerobot_ivmc.pipeline.stages import Stage, console_script, find_stage
 
 MANIFEST_FILE = "pipeline.json"
 LOCK_FILE = ".pipeline.lock"
@@ -44,9 +49,55 @@ class OutputFolderError(ValueError):
 
 @dataclass
 class StageResult:
+    """A stage's outcome in one run: "ran" or "skipped", its wall time (over every run of it), and for a
+    stage that ran, when it started and ended in this run (seconds from the run's start)."""
+
     name: str
-    status: str  # "ran" or "skipped"
+    status: str
     wall_s: float
+    started_s: float | None = None
+    ended_s: float | None = None
+
+
+class Executor(Protocol):
+    """Runs stage commands for `run_stages`, which decides what runs and writes every record.
+
+    `parallel`: whether it runs several stages at once (else `run_stages` starts one stage at a time, in
+    the stages' order). `start` hands it a stage's command; `wait_any` blocks until one started stage
+    ends and returns its name, its wall time or the `PipelineError` it failed with, and when its command
+    started (`time.time()`; None: when it was handed over); `cancel` stops every started stage (the driver
+    was interrupted)."""
+
+    parallel: bool
+
+    def start(self, stage: Stage, log_path: Path, resume: bool) -> None: ...
+
+    def wait_any(self) -> tuple[str, float | PipelineError, float | None]: ...
+
+    def cancel(self) -> None: ...
+
+
+class LocalExecutor:
+    """One stage at a time, in this process's machine (the default)."""
+
+    parallel = False
+
+    def __init__(self) -> None:
+        self._next: tuple[Stage, Path, bool] | None = None
+
+    def start(self, stage: Stage, log_path: Path, resume: bool) -> None:
+        self._next = (stage, log_path, resume)
+
+    def wait_any(self) -> tuple[str, float | PipelineError, float | None]:
+        stage, log_path, resume = self._next
+        self._next = None
+        try:
+            return stage.name, run_command(stage, log_path, resume), None
+        except PipelineError as error:
+            return stage.name, error, None
+
+    def cancel(self) -> None:
+        self._next = None
 
 
 def claim_root(root: Path, identity: dict) -> None:
@@ -87,50 +138,116 @@ def fingerprint(stage: Stage, upstream: dict[str, str]) -> str:
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:16]
 
 
+def check_order(stages: list[Stage]) -> None:
+    """Refuse a list whose stages wait for a stage that is not before them."""
+    seen: set[str] = set()
+    for stage in stages:
+        missing = [name for name in stage.prerequisites if name not in seen]
+        if missing:
+            raise ValueError(
+                f"Stage {stage.name} waits for {missing}, which are not earlier stages of the study."
+            )
+        seen.add(stage.name)
+
+
 def run_stages(
     root: Path,
     stages: list[Stage],
     log=print,
     on_stage_end: Callable[[list[StageResult]], None] | None = None,
+    executor: Executor | None = None,
 ) -> list[StageResult]:
     """Run the stages not yet done with their current fingerprint; return what ran and what was skipped.
 
+    A stage starts once every stage it waits for (`Stage.prerequisites`) has finished; the executor runs
+    one at a time in the list's order (local) or every startable one side by side (ray). The first failure
+    stops new starts; the stages already running finish and are recorded, then the failure is raised.
     `on_stage_end`, if given, is called with the results so far after every stage, run or skipped."""
+    check_order(stages)
+    executor = executor or LocalExecutor()
     fingerprints: dict[str, str] = {}
-    results = []
-    for index, stage in enumerate(stages, start=1):
-        fingerprints[stage.name] = fp = fingerprint(stage, fingerprints)
-        record_path = root / STAGES_DIR / f"{stage.name}.json"
-        record = json.loads(record_path.read_text()) if record_path.is_file() else {}
-        prefix = f"[{index}/{len(stages)}] {stage.name}"
-        if record.get("fingerprint") == fp and record.get("status") == "done" and stage.done_file.exists():
-            log(f"{prefix}: done earlier ({record['wall_s']:.0f} s), skipped")
-            results.append(StageResult(stage.name, "skipped", record["wall_s"]))
-        else:
-            resume = record.get("fingerprint") == fp and stage.output.exists() and stage.can_resume()
-            if stage.output.exists() and not resume:
-                shutil.rmtree(stage.output)
-            log_path = root / LOGS_DIR / f"{stage.name}.log"
-            earlier = killed_wall_s(record, log_path) if resume else 0.0
-            log(f"{prefix}: {'resuming' if resume else 'running'} (log {log_path})")
+    for stage in stages:
+        fingerprints[stage.name] = fingerprint(stage, fingerprints)
+    position = {stage.name: index for index, stage in enumerate(stages, start=1)}
+    prefix = {name: f"[{index}/{len(stages)}] {name}" for name, index in position.items()}
+    waiting, running = list(stages), {}
+    finished: set[str] = set()
+    results: list[StageResult] = []
+    failures: list[PipelineError] = []
+    run_start = time.time()
+
+    def ended(result: StageResult) -> None:
+        results.append(result)
+        finished.add(result.name)
+        if on_stage_end is not None:
+            on_stage_end(results)
+
+    try:
+        while waiting or running:
+            for stage in list(waiting):
+                if failures or (running and not executor.parallel):
+                    break
+                if not finished.issuperset(stage.prerequisites):
+                    if executor.parallel:
+                        continue
+                    break
+                waiting.remove(stage)
+                fp = fingerprints[stage.name]
+                record_path = root / STAGES_DIR / f"{stage.name}.json"
+                record = json.loads(record_path.read_text()) if record_path.is_file() else {}
+                if (
+                    record.get("fingerprint") == fp
+                    and record.get("status") == "done"
+                    and stage.done_file.exists()
+                ):
+                    log(f"{prefix[stage.name]}: done earlier ({record['wall_s']:.0f} s), skipped")
+                    ended(StageResult(stage.name, "skipped", record["wall_s"]))
+                    continue
+                resume = record.get("fingerprint") == fp and stage.output.exists() and stage.can_resume()
+                if stage.output.exists() and not resume:
+                    shutil.rmtree(stage.output)
+                log_path = root / LOGS_DIR / f"{stage.name}.log"
+                earlier = killed_wall_s(record, log_path) if resume else 0.0
+                log(f"{prefix[stage.name]}: {'resuming' if resume else 'running'} (log {log_path})")
+                started = time.time()
+                write_json_atomic(
+                    record_path,
+                    {
+                        "fingerprint": fp,
+                        "status": "running",
+                        "argv": stage.argv,
+                        "started": started,
+                        "wall_s_before": earlier,
+                    },
+                )
+                executor.start(stage, log_path, resume)
+                running[stage.name] = (record_path, earlier, started)
+            if not running:
+                break
+            name, outcome, started_at = executor.wait_any()
+            record_path, earlier, handed_over = running.pop(name)
+            if isinstance(outcome, PipelineError):
+                log(f"{prefix[name]}: failed")
+                failures.append(outcome)
+                continue
+            wall = earlier + outcome
             write_json_atomic(
                 record_path,
                 {
-                    "fingerprint": fp,
-                    "status": "running",
-                    "argv": stage.argv,
-                    "started": time.time(),
-                    "wall_s_before": earlier,
+                    "fingerprint": fingerprints[name],
+                    "status": "done",
+                    "wall_s": wall,
+                    "argv": find_stage(stages, name).argv,
                 },
             )
-            wall = earlier + run_command(stage, log_path, resume)
-            write_json_atomic(
-                record_path, {"fingerprint": fp, "status": "done", "wall_s": wall, "argv": stage.argv}
-            )
-            log(f"{prefix}: done in {wall:.0f} s")
-            results.append(StageResult(stage.name, "ran", wall))
-        if on_stage_end is not None:
-            on_stage_end(results)
+            log(f"{prefix[name]}: done in {wall:.0f} s")
+            started_s = (started_at or handed_over) - run_start
+            ended(StageResult(name, "ran", wall, started_s, time.time() - run_start))
+    except BaseException:
+        executor.cancel()
+        raise
+    if failures:
+        raise failures[0]
     return results
 
 
@@ -142,23 +259,33 @@ def killed_wall_s(record: dict, log_path: Path) -> float:
     return record.get("wall_s_before", 0.0) + max(0.0, log_path.stat().st_mtime - record["started"])
 
 
-def run_command(stage: Stage, log_path: Path, resume: bool = False) -> float:
+def run_command(
+    stage: Stage,
+    log_path: Path,
+    resume: bool = False,
+    extra_env: dict[str, str] | None = None,
+    tied_to_parent: bool = False,
+) -> float:
     """Run the stage's command (its resume command if `resume`, the log appended to) with its output in
-    `log_path`; its wall time, or PipelineError."""
+    `log_path`; its wall time, or PipelineError. `extra_env` adds variables that do not decide its outputs
+    (threads); with `tied_to_parent` the command runs in its own process group under `stage_process`, which
+    kills the group when this process dies (a Ray worker)."""
     log_path.parent.mkdir(parents=True, exist_ok=True)
     command = stage.resume_argv if resume else stage.argv
     argv = [console_script(command[0]), *command[1:]]
+    env = {**os.environ, **(extra_env or {}), **stage.env}
+    if tied_to_parent:
+        argv = [sys.executable, stage_process.__file__, *argv]  # (a script: none of the package's imports)
+        env[stage_process.PARENT_PID_VARIABLE] = str(os.getpid())
     start = time.perf_counter()
     with log_path.open("a" if resume else "w") as log_file:
-        env = [f"{key}={value}" for key, value in stage.env.items()]
-        log_file.write(("\n[resumed] " if resume else "") + " ".join([*env, *command]) + "\n\n")
+        shown_env = [f"{key}={value}" for key, value in stage.env.items()]
+        log_file.write(("\n[resumed] " if resume else "") + " ".join([*shown_env, *command]) + "\n\n")
         log_file.flush()
-        returncode = wait_with_heartbeat(
-            subprocess.Popen(
-                argv, stdout=log_file, stderr=subprocess.STDOUT, env={**os.environ, **stage.env}
-            ),
-            log_path,
+        process = subprocess.Popen(
+            argv, stdout=log_file, stderr=subprocess.STDOUT, env=env, start_new_session=tied_to_parent
         )
+        returncode = wait_with_heartbeat(process, log_path, kill_group=tied_to_parent)
     wall = time.perf_counter() - start
     if returncode != 0:
         tail = log_path.read_text().splitlines()[-5:]
@@ -172,8 +299,9 @@ def run_command(stage: Stage, log_path: Path, resume: bool = False) -> float:
     return wall
 
 
-def wait_with_heartbeat(process: subprocess.Popen, log_path: Path) -> int:
-    """Wait for `process`, touching `log_path` every `HEARTBEAT_S`; kill it if the wait is interrupted."""
+def wait_with_heartbeat(process: subprocess.Popen, log_path: Path, kill_group: bool = False) -> int:
+    """Wait for `process`, touching `log_path` every `HEARTBEAT_S`; kill it (with `kill_group`, its whole
+    process group) if the wait is interrupted."""
     try:
         while True:
             try:
@@ -181,6 +309,10 @@ def wait_with_heartbeat(process: subprocess.Popen, log_path: Path) -> int:
             except subprocess.TimeoutExpired:
                 os.utime(log_path)
     except BaseException:
-        process.kill()
+        if kill_group:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(process.pid, signal.SIGKILL)
+        else:
+            process.kill()
         process.wait()
         raise

@@ -35,7 +35,18 @@ from lerobot_ivmc.pipeline.stage_names import (
 )
 
 CHECKPOINT = LAST_PRETRAINED_MODEL
+CUDA = "cuda"
 TRAIN_CONFIG = CHECKPOINT / "train_config.json"
+
+
+@dataclass(frozen=True)
+class StageResources:
+    """What a stage takes while it runs, for an executor that runs stages side by side (not in the stage's
+    fingerprint): CPUs (its threads), a share of a GPU, and memory in bytes (0: not reserved)."""
+
+    cpus: float = 1.0
+    gpus: float = 0.0
+    memory: int = 0
 
 
 @dataclass
@@ -56,6 +67,9 @@ class Stage:
             checkpoint); None if any partial output will do.
         settings: what decides the outputs beyond the command line (a training's policy config with the
             defaults of the fields the command leaves out), so that a changed default redoes the stage.
+        after: stages that must finish first although it reads nothing of theirs (the perception check
+            that gates a chain); not in the fingerprint.
+        resources: what it takes while it runs (for the ray executor); not in the fingerprint.
     """
 
     name: str
@@ -67,6 +81,13 @@ class Stage:
     resume_argv: list[str] | None = None
     resume_marker: Path | None = None
     settings: dict = field(default_factory=dict)
+    after: list[str] = field(default_factory=list)
+    resources: StageResources = field(default_factory=StageResources)
+
+    @property
+    def prerequisites(self) -> list[str]:
+        """Every stage that must finish before this one starts."""
+        return [*self.depends, *self.after]
 
     def can_resume(self) -> bool:
         """Whether a killed run of this stage's config can be continued rather than redone."""
@@ -106,7 +127,44 @@ def build_stages(cfg: PipelineConfig) -> list[Stage]:
         stages += chain_stages(cfg, fc, None, chain)
         for train_seed in cfg.train.extra_seeds:
             stages += chain_stages(cfg, fc, train_seed, chain)
+    for stage in stages:
+        stage.resources = stage_resources(cfg, stage)
     return stages
+
+
+# Memory a training takes beside its frame cache (the process, torch, the batch), in bytes.
+TRAINING_BASE_MEMORY = 2 * 2**30
+
+
+def stage_resources(cfg: PipelineConfig, stage: Stage) -> StageResources:
+    """What `stage` takes while it runs: the collector its workers, a training `executor.train_cpus` (and
+    `train_gpus` of a GPU on CUDA) and the memory of its frame cache (every demo frame as uint8), the others
+    `executor.eval_cpus`."""
+    e, command = cfg.executor, stage.argv[0]
+    if command == "lerobot-ivmc-collect":
+        return StageResources(cpus=max(1, cfg.collect.num_workers))
+    if command == "lerobot-ivmc-train":
+        c = cfg.collect
+        frames = c.dataset.num_episodes * c.dataset.episode_steps * c.env.image_size**2 * 3
+        on_gpu = f"--policy.device={CUDA}" in stage.argv
+        return StageResources(e.train_cpus, e.train_gpus if on_gpu else 0.0, frames + TRAINING_BASE_MEMORY)
+    return StageResources(cpus=e.eval_cpus)
+
+
+def train_device(cfg: PipelineConfig) -> str:
+    """The trainings' device: `train.device`, with "auto" resolved on this machine (CUDA if present)."""
+    if cfg.train.device != "auto":
+        return cfg.train.device
+    import torch
+
+    return CUDA if torch.cuda.is_available() else "cpu"
+
+
+def mixed_precision(cfg: PipelineConfig, device: str) -> str:
+    """`ACCELERATE_MIXED_PRECISION` of the trainings: bf16 where `train.bf16` and the device runs it
+    natively (a GPU, or a CPU with AVX512-BF16 or AMX), else "no"."""
+    native = device == CUDA or cpu_has_native_bf16()
+    return "bf16" if cfg.train.bf16 and native else "no"
 
 
 def collect_stage(cfg: PipelineConfig, data: Path, repo_id: str) -> Stage:
@@ -141,7 +199,13 @@ def collect_stage(cfg: PipelineConfig, data: Path, repo_id: str) -> Stage:
         "--progress=false",
     ]
     # The collector resumes its own staged demos: a killed collection reruns its command.
-    return Stage(COLLECT_STAGE, collect, data, data / "meta" / "info.json", resume_argv=collect)
+    return Stage(
+        COLLECT_STAGE,
+        collect,
+        data,
+        data / "meta" / "info.json",
+        resume_argv=collect,
+    )
 
 
 @dataclass
@@ -178,15 +242,24 @@ def chain_stages(cfg: PipelineConfig, fc: int, train_seed: int | None, chain: Ch
     """The whole chain of one training seed (None: the main one) and #fc: vmc and bvmc trained and checked,
     foresight, threshold, the Table I rows on the test scenes, the Fig. 3 episodes and detection. Stages of
     an extra seed carry its suffix (`foresight_fc1_seed2000`); those of the main seed have none."""
-    stages = []
+    stages, gates = [], []
     for training in train_stages(cfg, fc, chain.data, chain.repo_id, train_seed):
-        stages += [training, perception_stage(cfg, training, chain.env_flags, gate=train_seed is None)]
+        check = perception_stage(cfg, training, chain.env_flags, gate=train_seed is None)
+        stages += [training, check]
+        gates += [check.name] if train_seed is None else []
     foresight = foresight_stage(cfg, fc, train_seed, chain)
     threshold = threshold_stage(cfg, fc, train_seed, chain, foresight)
-    stages += [foresight, threshold]
-    stages += row_stages(cfg, fc, train_seed, chain, threshold)
-    stages.append(detect_stage(cfg, fc, train_seed, stages, threshold))
-    return stages
+    rows = row_stages(cfg, fc, train_seed, chain, threshold)
+    # The main seed's checks stop the study before foresight and evaluations are spent on its policies: the
+    # stages that do not already wait for them through foresight wait for them explicitly.
+    for stage in [foresight, *rows]:
+        if threshold.name not in stage.depends:
+            stage.after = list(gates)
+    stages += [foresight, threshold, *rows]
+    detect = detect_stage(cfg, fc, train_seed, stages, threshold)
+    # The chain's last stage in every order, so that its end is the chain's (the results are written then).
+    detect.after = [row.name for row in rows if row.name not in detect.depends]
+    return [*stages, detect]
 
 
 def foresight_stage(cfg: PipelineConfig, fc: int, train_seed: int | None, chain: ChainFlags) -> Stage:
@@ -323,6 +396,7 @@ def train_stages(
     """`lerobot-ivmc-train` of vmc and bvmc with `fc` fully connected layers on the collected demos, from
     the main training seed or from `train_seed`, one of the extra ones."""
     t = cfg.train
+    device = train_device(cfg)
     # lerobot-ivmc-train checks the style against the dataset's record; here it also enters the fingerprint.
     policy_fields = {**t.policy.given(), "render_style": cfg.collect.env.render_style}
     stages = []
@@ -335,7 +409,7 @@ def train_stages(
                 [
                     "lerobot-ivmc-train",
                     f"--policy.type={policy_type}",
-                    "--policy.device=cpu",
+                    f"--policy.device={device}",
                     f"--policy.num_fc_layers={fc}",
                     *flags("policy.", policy_fields),
                     f"--dataset.repo_id={repo_id}",
@@ -358,7 +432,7 @@ def train_stages(
                 output=out,
                 done_file=out / CHECKPOINT / "model.safetensors",
                 depends=[COLLECT_STAGE],
-                env={"ACCELERATE_MIXED_PRECISION": "bf16" if t.bf16 and cpu_has_native_bf16() else "no"},
+                env={"ACCELERATE_MIXED_PRECISION": mixed_precision(cfg, device)},
                 # LeRobot's own resume: steps, schedule, optimiser and RNG states from the last checkpoint.
                 resume_argv=["lerobot-ivmc-train", f"--config_path={out / TRAIN_CONFIG}", "--resume=true"],
                 resume_marker=out / TRAIN_CONFIG,

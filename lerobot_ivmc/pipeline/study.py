@@ -6,13 +6,22 @@ from __future__ import annotations
 
 import json
 import time
+from dataclasses import replace
 
 import draccus
 
 from lerobot_ivmc.pipeline.config import PRESETS_DIR, PipelineConfig
+from lerobot_ivmc.pipeline.critical_path import critical_path, overlaps
 from lerobot_ivmc.pipeline.results import RESULTS_DIR, adds_results, write_results
-from lerobot_ivmc.pipeline.runner import StageResult, claim_root, run_stages, study_lock
-from lerobot_ivmc.pipeline.stages import build_stages
+from lerobot_ivmc.pipeline.runner import (
+    Executor,
+    LocalExecutor,
+    StageResult,
+    claim_root,
+    run_stages,
+    study_lock,
+)
+from lerobot_ivmc.pipeline.stages import CUDA, Stage, build_stages
 
 
 def available_presets() -> list[str]:
@@ -41,24 +50,64 @@ def parse_config(argv: list[str]) -> PipelineConfig:
     return cfg
 
 
+def make_executor(cfg: PipelineConfig, log=print) -> Executor:
+    """The executor `cfg.executor` names: local, or Ray (joining `address`, or a cluster of this machine)."""
+    if cfg.executor.type == "ray":
+        from lerobot_ivmc.pipeline.ray_executor import RayExecutor
+
+        return RayExecutor(cfg.executor.address, cfg.executor.num_cpus, log)
+    return LocalExecutor()
+
+
+def with_train_device(cfg: PipelineConfig, executor: Executor) -> PipelineConfig:
+    """`cfg` with `train.device` "auto" resolved where the trainings run: on Ray, CUDA if the cluster has a
+    GPU; locally, if this machine has one (`stages.train_device`)."""
+    if cfg.train.device != "auto" or not hasattr(executor, "has_gpus"):
+        return cfg
+    return replace(cfg, train=replace(cfg.train, device=CUDA if executor.has_gpus else "cpu"))
+
+
 def run_pipeline(cfg: PipelineConfig, log=print) -> dict:
     """Run (or resume) the study; returns the results JSON."""
     root = cfg.root
     claim_root(root, {"task": cfg.task, "preset": cfg.preset})
-    stages = build_stages(cfg)
     start = time.perf_counter()
     out = root / RESULTS_DIR
-
-    def write_when_results_grow(timings: list[StageResult]) -> None:
-        if adds_results(cfg, timings):
-            write_results(cfg, stages, timings)
-            log(f"Results so far in {out}")
-
     with study_lock(root):
-        timings = run_stages(root, stages, log, on_stage_end=write_when_results_grow)
-    log(f"\nStage wall times ({cfg.task}, preset {cfg.preset}; skipped stages show their earlier time):")
-    for t in timings:
-        log(f"  {t.name:<28} {t.status:<8} {t.wall_s:8.0f} s")
-    log(f"  {'this run':<28} {'':<8} {time.perf_counter() - start:8.0f} s")
+        executor = make_executor(cfg, log)
+        try:
+            cfg = with_train_device(cfg, executor)
+            stages = build_stages(cfg)
+
+            def write_when_results_grow(timings: list[StageResult]) -> None:
+                if adds_results(cfg, timings):
+                    write_results(cfg, stages, timings)
+                    log(f"Results so far in {out}")
+
+            timings = run_stages(root, stages, log, on_stage_end=write_when_results_grow, executor=executor)
+        finally:
+            if hasattr(executor, "close"):
+                executor.close()
+    log_stage_times(cfg, stages, timings, time.perf_counter() - start, log)
     log(f"\n{(out / 'table.md').read_text()}\nResults in {out}")
     return json.loads((out / f"{cfg.task}.json").read_text())
+
+
+def log_stage_times(
+    cfg: PipelineConfig, stages: list[Stage], timings: list[StageResult], elapsed: float, log=print
+) -> None:
+    """Each stage's wall time, their sum, this run's elapsed time, the critical path (the study's time with
+    unlimited workers) and the stages that ran side by side."""
+    log(f"\nStage wall times ({cfg.task}, preset {cfg.preset}; skipped stages show their earlier time):")
+    by_name = {t.name: t for t in timings}
+    for stage in stages:
+        t = by_name[stage.name]
+        log(f"  {t.name:<28} {t.status:<8} {t.wall_s:8.0f} s")
+    path_s, path = critical_path(stages, {t.name: t.wall_s for t in timings})
+    log(f"  {'sum of stage times':<37} {sum(t.wall_s for t in timings):8.0f} s")
+    log(f"  {'this run':<37} {elapsed:8.0f} s ({cfg.executor.type} executor)")
+    log(f"  {'critical path':<37} {path_s:8.0f} s: {' -> '.join(path)}")
+    spans = {t.name: (t.started_s, t.ended_s) for t in timings if t.status == "ran"}
+    side_by_side = overlaps(spans)
+    if side_by_side:
+        log(f"  ran side by side: {', '.join(f'{a} | {b}' for a, b in side_by_side)}")

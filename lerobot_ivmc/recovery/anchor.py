@@ -204,10 +204,22 @@ def carry_to_goal(
     return WaypointMoves(waypoints, steps, tolerance, CARRY_TO_GOAL, place, reset_memory=release)
 
 
-def regrasp(grip: np.ndarray, obj: np.ndarray, steps: int, tolerance: float) -> WaypointMoves:
-    """Not holding: open, rise above the believed object, descend to `GRASP_HEIGHT` above its centre,
-    close, lift back up; then the controller carries it on if the fingers hold it."""
-    obj = np.asarray(obj, dtype=np.float64)
+def on_table(obj: np.ndarray, rest_height: float) -> np.ndarray:
+    """The believed object (3,) moved to `rest_height`, where an object the robot does not hold lies on the
+    table (the believed height itself where `rest_height` is NaN)."""
+    obj = np.asarray(obj, dtype=np.float64).copy()
+    if np.isfinite(rest_height):
+        obj[2] = rest_height
+    return obj
+
+
+def regrasp(
+    grip: np.ndarray, obj: np.ndarray, steps: int, tolerance: float, rest_height: float = np.nan
+) -> WaypointMoves:
+    """Not holding: open, rise above the believed object (at `rest_height`, `on_table`), descend to
+    `GRASP_HEIGHT` above its centre, close, lift back up; then the controller carries it on if the fingers
+    hold it."""
+    obj = on_table(obj, rest_height)
     above = obj + np.array([0.0, 0.0, APPROACH_HEIGHT])
     grasp = obj + np.array([0.0, 0.0, GRASP_HEIGHT])
     waypoints = [
@@ -221,7 +233,13 @@ def regrasp(grip: np.ndarray, obj: np.ndarray, steps: int, tolerance: float) -> 
 
 
 def push_to_goal(
-    grip: np.ndarray, obj: np.ndarray, goal: np.ndarray, steps: int, tolerance: float, legs: int = PUSH_LEGS
+    grip: np.ndarray,
+    obj: np.ndarray,
+    goal: np.ndarray,
+    steps: int,
+    tolerance: float,
+    legs: int = PUSH_LEGS,
+    rest_height: float = np.nan,
 ) -> WaypointMoves:
     """Not holding, without grasping: one straight push of the believed object toward `goal` with closed
     fingers, as the scripted demos push (`experts/push.py`): rise, move above the point behind the object,
@@ -229,8 +247,9 @@ def push_to_goal(
     axis (x or y) on which the object is believed farther from the goal; it may take the steps its path
     needs at its speeds and `steps` more. With `legs` > 1 the controller, once the leg is over, plans the
     next one from where the policy then believes the object (`then_push`), until it believes the object
-    on the goal (`on_goal`); then it hands back with a fresh memory."""
-    obj, goal = np.asarray(obj, dtype=np.float64), np.asarray(goal, dtype=np.float64)
+    on the goal (`on_goal`); then it hands back with a fresh memory. The object is pushed at its centre's
+    height, `rest_height` where given (`on_table`)."""
+    obj, goal = on_table(obj, rest_height), np.asarray(goal, dtype=np.float64)
     hover = np.array([0.0, 0.0, HOVER])
     if on_goal(obj, goal):  # nothing to push as far as the policy believes: clear the object, hand back
         above = Waypoint(rise_towards(grip, obj + hover), GRIPPER_CLOSE)
@@ -238,7 +257,7 @@ def push_to_goal(
     axis = int(np.argmax(np.abs(goal[:2] - obj[:2])))  # the farther axis first
     contact = (CONTACT_X, CONTACT_Y)[axis]
     side = 1.0 if goal[axis] >= obj[axis] else -1.0
-    z = float(obj[2])  # the pushing height: the believed object's centre, as the demos push
+    z = float(obj[2])  # the pushing height: the object's centre, as the demos push
     start, end = np.array([obj[0], obj[1], z]), np.array([obj[0], obj[1], z])
     start[axis] -= side * (contact + APPROACH_GAP)
     end[axis] = goal[axis] - side * contact

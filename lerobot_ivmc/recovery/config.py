@@ -67,6 +67,10 @@ class RecoveryConfig:
         anchor_grasp: anchor grasps an object it does not hold where the policy believes it; False: it
             pushes the believed object onto the anchored goal with closed fingers and hands back with a
             fresh memory (for tasks whose object is not picked up). None: from the task (False for push).
+        anchor_rest_height: height (metres, world z) of the object's centre when it lies on the table, from
+            the task's geometry: an object anchor does not hold is re-grasped or pushed at this height, not
+            at the height the object head believes (whose errors put the fingers over the object). None:
+            from the task; NaN: the believed height.
         max_videos: at most this many videos of episodes with a recovery, the uncertainty trace drawn under
             the frames (frames are rendered for every episode until they are found; 0 disables).
     """
@@ -88,17 +92,23 @@ class RecoveryConfig:
     anchor_steps: int = 40
     anchor_release: bool | None = None
     anchor_grasp: bool | None = None
+    anchor_rest_height: float | None = None
     max_videos: int = 4
 
-    def for_task(self, object_picked: bool, object_held_at_end: bool) -> RecoveryConfig:
-        """These settings with anchor's unset task-dependent ones taken from the task's object handling (the
-        settings themselves for another mode)."""
+    def for_task(
+        self, object_picked: bool, object_held_at_end: bool, object_rest_height: float = math.nan
+    ) -> RecoveryConfig:
+        """These settings with anchor's unset task-dependent ones taken from the task's object handling and
+        geometry (the settings themselves for another mode)."""
         if self.mode != "anchor":
             return self
         return replace(
             self,
             anchor_release=not object_held_at_end if self.anchor_release is None else self.anchor_release,
             anchor_grasp=object_picked if self.anchor_grasp is None else self.anchor_grasp,
+            anchor_rest_height=(
+                object_rest_height if self.anchor_rest_height is None else self.anchor_rest_height
+            ),
         )
 
     def __post_init__(self) -> None:
@@ -136,12 +146,17 @@ class RecoveryConfig:
             raise ValueError(
                 f"--recovery.min_unc_memory must be one of {MIN_UNC_MEMORY}, got {self.min_unc_memory!r}."
             )
-        if (self.anchor_steps, self.anchor_release, self.anchor_grasp) != (40, None, None) and (
-            self.mode != "anchor"
-        ):
+        anchor_settings = (self.anchor_steps, self.anchor_release, self.anchor_grasp, self.anchor_rest_height)
+        if anchor_settings != (40, None, None, None) and self.mode != "anchor":
             raise ValueError(
-                "--recovery.anchor_steps, anchor_release and anchor_grasp set the anchor mode; they have no "
-                f"effect with --recovery.mode={self.mode}: drop them or use --recovery.mode=anchor."
+                "--recovery.anchor_steps, anchor_release, anchor_grasp and anchor_rest_height set the anchor "
+                f"mode; they have no effect with --recovery.mode={self.mode}: drop them or use "
+                "--recovery.mode=anchor."
+            )
+        if self.anchor_rest_height is not None and math.isinf(self.anchor_rest_height):
+            raise ValueError(
+                f"--recovery.anchor_rest_height is a height in metres (or nan: the believed one), got "
+                f"{self.anchor_rest_height}."
             )
         if self.min_unc_choice not in MIN_UNC_CHOICE:
             raise ValueError(

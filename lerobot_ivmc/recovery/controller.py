@@ -122,7 +122,8 @@ class IntrospectiveController(BVMCRolloutWrapper):
     ):
         super().__init__(policy)
         # Anchor's task-dependent settings left unset (`RecoveryConfig.for_task` fills them from the task):
-        # those of a task that picks its object up and lets it go at the goal, as pick_place.
+        # those of a task that picks its object up and lets it go at the goal, as pick_place, acting at the
+        # object's believed height.
         recovery = recovery.for_task(object_picked=True, object_held_at_end=False)
         if recovery.mode != "none" and threshold is None:
             raise ValueError(f"Recovery mode {recovery.mode!r} needs a threshold.")
@@ -227,7 +228,15 @@ class IntrospectiveController(BVMCRolloutWrapper):
     def _push(self, row: int, grip: np.ndarray, legs: int) -> Manoeuvre:
         cfg = self.recovery
         goal = self.anchors[row].goal
-        return push_to_goal(grip, self.object_beliefs[row], goal, cfg.anchor_steps, cfg.move_tolerance, legs)
+        return push_to_goal(
+            grip,
+            self.object_beliefs[row],
+            goal,
+            cfg.anchor_steps,
+            cfg.move_tolerance,
+            legs,
+            cfg.anchor_rest_height,
+        )
 
     def _apply(self, row: int, change: MemoryChange) -> None:
         memory = self.policy._memory
@@ -259,7 +268,13 @@ class IntrospectiveController(BVMCRolloutWrapper):
             if holding:
                 manoeuvre = self._carry(row, grip)
             elif cfg.anchor_grasp:
-                manoeuvre = regrasp(grip, self.object_beliefs[row], cfg.anchor_steps, cfg.move_tolerance)
+                manoeuvre = regrasp(
+                    grip,
+                    self.object_beliefs[row],
+                    cfg.anchor_steps,
+                    cfg.move_tolerance,
+                    cfg.anchor_rest_height,
+                )
             else:
                 manoeuvre = self._push(row, grip, PUSH_LEGS)
             event_extra = {"holding": holding, "target": manoeuvre.target.round(4).tolist()}

@@ -230,6 +230,11 @@ def test_bad_input_is_refused_with_what_to_do(capsys: pytest.CaptureFixture) -> 
         # Set by the study itself: an override would be ignored.
         ("--collect.env.task=pick_place", "differs from --task='push'"),
         ("--collect.dataset.root=/tmp/demos", "--collect.dataset.root is set by the study"),
+        # Where the stages run.
+        ("--executor.type=dask", "--executor.type must be one of ('local', 'ray')"),
+        ("--executor.address=auto", "set the Ray cluster: add --executor.type=ray"),
+        ("--executor.train_gpus=2", "--executor.train_gpus is the share of one GPU"),
+        ("--train.device=tpu", "--train.device must be one of ('auto', 'cpu', 'cuda')"),
     ):
         with pytest.raises(Exception) as refused:
             parse_config(["--task=push", "--preset=smoke", override])

@@ -24,6 +24,8 @@ from lerobot_ivmc.recovery.anchor import (
     RELEASE_LIFT,
     BeliefAnchor,
     is_holding,
+    push_to_goal,
+    regrasp,
 )
 from lerobot_ivmc.recovery.config import RECOVERY_MODES, RecoveryConfig
 from lerobot_ivmc.recovery.controller import IntrospectiveController
@@ -179,6 +181,25 @@ def test_anchor_regrasps_the_object_believed_now_and_carries_it_if_the_fingers_h
         assert phases[after] == CARRY_TO_GOAL
     else:
         assert phases[after] == 0 and len(changes) == 1
+
+
+def test_an_object_not_held_is_grasped_and_pushed_at_the_task_s_rest_height() -> None:
+    """The object head placed unrescued pick_place cubes 3.7-3.8 cm above the table; an object the robot
+    does not hold lies on the table, so anchor acts at the task's rest height, not the believed one."""
+    grip, believed = np.array([1.34, 0.75, 0.53]), np.array([1.30, 0.70, 0.463])
+    cube = task_env_class("pick_place").object_shape
+    settings = RecoveryConfig(mode="anchor").for_task(True, False, cube.rest_height)
+    assert settings.anchor_rest_height == pytest.approx(0.425)
+    grasp = regrasp(grip, believed, 40, 0.01, settings.anchor_rest_height)
+    np.testing.assert_allclose(grasp.target, [1.30, 0.70, 0.425 + GRASP_HEIGHT])
+    assert min(w.position[2] for w in grasp.waypoints) == pytest.approx(0.425 + GRASP_HEIGHT)
+    np.testing.assert_allclose(regrasp(grip, believed, 40, 0.01).target[2], 0.463 + GRASP_HEIGHT)  # NaN
+    push = push_to_goal(grip, believed, np.array([1.40, 0.70, 0.425]), 40, 0.01, 1, cube.rest_height)
+    assert min(w.position[2] for w in push.waypoints) == pytest.approx(0.425)  # the legs at the centre
+    given = RecoveryConfig(mode="anchor", anchor_rest_height=float("nan")).for_task(True, False, 0.425)
+    assert np.isnan(given.anchor_rest_height)  # the user's choice (the believed height) is kept
+    with pytest.raises(ValueError, match="anchor_rest_height is a height in metres"):
+        RecoveryConfig(mode="anchor", anchor_rest_height=float("inf"))
 
 
 def test_anchor_fingers_apart_while_opening_are_not_holding() -> None:
