@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 
 import draccus
@@ -16,6 +18,7 @@ from lerobot_ivmc.pipeline.results import RESULTS_DIR, adds_results, write_resul
 from lerobot_ivmc.pipeline.runner import (
     Executor,
     LocalExecutor,
+    PipelineError,
     StageResult,
     claim_root,
     run_stages,
@@ -50,6 +53,28 @@ def parse_config(argv: list[str]) -> PipelineConfig:
     return cfg
 
 
+def split_tasks(argv: list[str]) -> list[list[str]]:
+    """One argument list per study: `--task=[push,pick_place]` gives one per task, each in its own folder
+    (`<output_dir>/<task>` where `--output_dir` is given, else the default per task); other argv as is."""
+    tasks = [arg.split("=", 1)[1] for arg in argv if arg.startswith("--task=")]
+    if len(tasks) != 1 or not tasks[0].startswith("["):
+        return [argv]
+    names = [name.strip() for name in tasks[0].strip("[]").split(",") if name.strip()]
+    if len(set(names)) != len(names) or not names:
+        raise ValueError(f"--task={tasks[0]}: name each task once, e.g. --task=[push,pick_place].")
+    studies = []
+    for name in names:
+        study = []
+        for arg in argv:
+            if arg.startswith("--task="):
+                arg = f"--task={name}"
+            elif arg.startswith("--output_dir="):
+                arg = f"{arg}/{name}"
+            study.append(arg)
+        studies.append(study)
+    return studies
+
+
 def make_executor(cfg: PipelineConfig, log=print) -> Executor:
     """The executor `cfg.executor` names: local, or Ray (joining `address`, or a cluster of this machine)."""
     if cfg.executor.type == "ray":
@@ -57,6 +82,34 @@ def make_executor(cfg: PipelineConfig, log=print) -> Executor:
 
         return RayExecutor(cfg.executor.address, cfg.executor.num_cpus, log)
     return LocalExecutor()
+
+
+def run_studies(cfgs: list[PipelineConfig], run_study: Callable[[PipelineConfig, Callable], dict]) -> None:
+    """Run several studies (`split_tasks`): one after the other on the local executor; on Ray side by side,
+    one driver thread each on one cluster, their log lines prefixed with the task. Raises the first
+    `PipelineError` once every study has stopped."""
+    if len(cfgs) == 1 or cfgs[0].executor.type != "ray":
+        for cfg in cfgs:
+            run_study(cfg, print)
+        return
+    from lerobot_ivmc.pipeline.ray_executor import RayExecutor
+
+    cluster = RayExecutor(cfgs[0].executor.address, cfgs[0].executor.num_cpus)  # the studies join it
+    errors: list[PipelineError] = []
+
+    def run_one(cfg: PipelineConfig) -> None:
+        try:
+            run_study(cfg, lambda message: print(f"[{cfg.task}] {message}", flush=True))
+        except PipelineError as error:
+            errors.append(error)
+
+    try:
+        with ThreadPoolExecutor(len(cfgs)) as pool:
+            list(pool.map(run_one, cfgs))
+    finally:
+        cluster.close()
+    if errors:
+        raise errors[0]
 
 
 def with_train_device(cfg: PipelineConfig, executor: Executor) -> PipelineConfig:

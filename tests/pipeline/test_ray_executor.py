@@ -17,6 +17,7 @@ from fake_stages import fake_stage, killable_study
 
 from lerobot_ivmc.pipeline.critical_path import critical_path, overlaps
 from lerobot_ivmc.pipeline.runner import STAGES_DIR, PipelineError, run_stages
+from lerobot_ivmc.pipeline.study import make_executor, parse_config, run_studies, split_tasks
 
 ray = pytest.importorskip("ray")
 from lerobot_ivmc.pipeline.ray_executor import RayExecutor  # noqa: E402
@@ -133,3 +134,26 @@ def test_two_one_cpu_nodes_each_take_a_stage(tmp_path: Path) -> None:
     finally:
         ray.shutdown()
         cluster.shutdown()
+
+
+def test_several_tasks_are_studies_of_their_own_side_by_side_on_one_cluster(tmp_path: Path) -> None:
+    args = ["--task=[push,pick_place]", "--preset=smoke", f"--output_dir={tmp_path}", "--executor.type=ray"]
+    studies = split_tasks([*args, "--executor.num_cpus=2"])
+    assert [s[0] for s in studies] == ["--task=push", "--task=pick_place"]
+    cfgs = [parse_config(study) for study in studies]
+    assert [cfg.root for cfg in cfgs] == [tmp_path / "push", tmp_path / "pick_place"]
+    spans = {}
+
+    def run_study(cfg, log) -> dict:  # one stand-in stage per study, on the shared cluster
+        stages = [fake_stage(cfg.root, "train", sleep=3.0)]
+        executor = make_executor(cfg, log)
+        results = run_stages(cfg.root, stages, log, executor=executor)
+        executor.close()
+        spans[cfg.task] = (time.time() - results[0].wall_s, time.time())
+        return {}
+
+    run_studies(cfgs, run_study)
+    assert (tmp_path / "push" / "train" / "done").is_file() and (tmp_path / "pick_place" / "train").is_dir()
+    assert overlaps(spans), spans
+    with pytest.raises(ValueError, match="name each task once"):
+        split_tasks(["--task=[push,push]"])
