@@ -1,5 +1,6 @@
 """LeRobot's writer behind the collector: staged episodes appended, in order, to a LeRobotDataset built in
-the staging folder, its statistics file written with sorted keys, `datasets`' progress bars silenced."""
+the staging folder, its statistics file written with sorted keys, `datasets`' progress bars silenced, and
+its image bytes embedded a batch of rows at a time."""
 
 from __future__ import annotations
 
@@ -9,7 +10,9 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import datasets
+import lerobot.datasets.lerobot_dataset as lerobot_dataset_module
 import numpy as np
+from datasets.table import embed_table_storage
 from lerobot.datasets.lerobot_dataset import LeRobotDataset
 from lerobot.datasets.utils import STATS_PATH, write_json
 
@@ -29,6 +32,8 @@ from lerobot_ivmc.datasets.features import (
 from lerobot_ivmc.envs import TASK_ENVS
 
 ROBOT_TYPE = "fetch"
+# Rows whose image bytes are embedded in one call (an episode is 100 to 200 frames).
+EMBED_BATCH_ROWS = 1000
 
 
 class EpisodeAssembler:
@@ -98,3 +103,25 @@ def quiet_datasets() -> Iterator[None]:
     finally:
         if was_enabled:
             datasets.enable_progress_bars()
+
+
+def embed_images_in_batches(dataset: datasets.Dataset) -> datasets.Dataset:
+    """LeRobot's `embed_images` (`lerobot.datasets.utils`), the same table, with `datasets`'
+    `embed_table_storage` run on `EMBED_BATCH_ROWS` rows at a time instead of row by row: LeRobot's per-row
+    map took 2.4 ms a frame, more than half of `save_episode`."""
+    format = dataset.format
+    dataset = dataset.with_format("arrow")
+    dataset = dataset.map(embed_table_storage, batched=True, batch_size=EMBED_BATCH_ROWS)
+    return dataset.with_format(**format)
+
+
+@contextlib.contextmanager
+def batched_image_embedding() -> Iterator[None]:
+    """`LeRobotDataset.save_episode` in this process embeds image bytes with `embed_images_in_batches` while
+    the context lasts (LeRobot's own function is restored after; other processes are untouched)."""
+    original = lerobot_dataset_module.embed_images
+    lerobot_dataset_module.embed_images = embed_images_in_batches
+    try:
+        yield
+    finally:
+        lerobot_dataset_module.embed_images = original

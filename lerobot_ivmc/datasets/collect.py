@@ -25,7 +25,12 @@ from lerobot.datasets.lerobot_dataset import LeRobotDataset
 from tqdm import tqdm
 
 from lerobot_ivmc.datasets import expert_attempts, staging
-from lerobot_ivmc.datasets.assembler import EpisodeAssembler, quiet_datasets, sort_stats
+from lerobot_ivmc.datasets.assembler import (
+    EpisodeAssembler,
+    batched_image_embedding,
+    quiet_datasets,
+    sort_stats,
+)
 from lerobot_ivmc.datasets.collect_config import CollectConfig, CollectSummary
 from lerobot_ivmc.datasets.collect_root import (
     prepare_root,
@@ -112,7 +117,7 @@ def _run_collection(cfg: CollectConfig, work: Path, summary: CollectSummary) -> 
     try:
         if cfg.num_workers > 0 and _plan(0, target, successes, failures):
             pool = _make_pool(cfg, episodes_dir)  # workers start up while staged episodes are reassembled
-        with quiet_datasets():
+        with quiet_datasets(), batched_image_embedding():
             assemble_ready()
             summary.resumed_episodes = len(assembler.episodes)
             while len(assembler.episodes) < target:

@@ -52,3 +52,28 @@ def test_feature_spec_matches_env_observation_space():
 def test_bad_image_size_is_refused(size):
     with pytest.raises(ValueError, match="image_size"):
         demo_features(size)
+
+
+def test_batched_image_embedding_writes_lerobot_s_table(tmp_path) -> None:
+    """The collector embeds image bytes a batch of rows at a time: the table LeRobot's row-by-row
+    `embed_images` gives, and LeRobot's own function is back once the collector's context ends."""
+    import datasets
+    import lerobot.datasets.lerobot_dataset as lerobot_dataset_module
+    import numpy as np
+    from lerobot.datasets.utils import embed_images
+    from PIL import Image
+
+    from lerobot_ivmc.datasets.assembler import batched_image_embedding, embed_images_in_batches
+
+    paths = []
+    for i in range(7):
+        paths.append(str(tmp_path / f"frame_{i}.png"))
+        Image.fromarray(np.full((8, 8, 3), 30 * i, dtype=np.uint8)).save(paths[-1])
+    features = datasets.Features({"image": datasets.Image(), "index": datasets.Value("int64")})
+    frames = datasets.Dataset.from_dict({"image": paths, "index": list(range(7))}, features=features)
+    rows, batched = embed_images(frames), embed_images_in_batches(frames)
+    assert batched.data.table.equals(rows.data.table)
+    assert batched[3]["image"].tobytes() == Image.open(paths[3]).tobytes()
+    with batched_image_embedding():
+        assert lerobot_dataset_module.embed_images is embed_images_in_batches
+    assert lerobot_dataset_module.embed_images is embed_images
