@@ -192,54 +192,24 @@ def run_stages(
                         continue
                     break
                 waiting.remove(stage)
-                fp = fingerprints[stage.name]
-                record_path = root / STAGES_DIR / f"{stage.name}.json"
-                record = json.loads(record_path.read_text()) if record_path.is_file() else {}
-                if (
-                    record.get("fingerprint") == fp
-                    and record.get("status") == "done"
-                    and stage.done_file.exists()
-                ):
-                    log(f"{prefix[stage.name]}: done earlier ({record['wall_s']:.0f} s), skipped")
-                    ended(StageResult(stage.name, "skipped", record["wall_s"]))
+                begun = begin_stage(root, stage, fingerprints[stage.name], prefix[stage.name], log)
+                if isinstance(begun, StageResult):
+                    ended(begun)
                     continue
-                resume = record.get("fingerprint") == fp and stage.output.exists() and stage.can_resume()
-                if stage.output.exists() and not resume:
-                    shutil.rmtree(stage.output)
-                log_path = root / LOGS_DIR / f"{stage.name}.log"
-                earlier = killed_wall_s(record, log_path) if resume else 0.0
-                log(f"{prefix[stage.name]}: {'resuming' if resume else 'running'} (log {log_path})")
-                started = time.time()
-                write_json_atomic(
-                    record_path,
-                    {
-                        "fingerprint": fp,
-                        "status": "running",
-                        "argv": stage.argv,
-                        "started": started,
-                        "wall_s_before": earlier,
-                    },
-                )
-                executor.start(stage, log_path, resume)
-                running[stage.name] = (record_path, earlier, started)
+                executor.start(stage, *begun)
+                running[stage.name] = (time.time(), *begun)
             if not running:
                 break
             name, outcome, started_at = executor.wait_any()
-            record_path, earlier, handed_over = running.pop(name)
+            handed_over, log_path, resume = running.pop(name)
             if isinstance(outcome, PipelineError):
                 log(f"{prefix[name]}: failed")
                 failures.append(outcome)
                 continue
-            wall = earlier + outcome
-            write_json_atomic(
-                record_path,
-                {
-                    "fingerprint": fingerprints[name],
-                    "status": "done",
-                    "wall_s": wall,
-                    "argv": find_stage(stages, name).argv,
-                },
-            )
+            record_path = root / STAGES_DIR / f"{name}.json"
+            wall = json.loads(record_path.read_text())["wall_s_before"] + outcome
+            record = {"fingerprint": fingerprints[name], "status": "done", "wall_s": wall}
+            write_json_atomic(record_path, {**record, "argv": find_stage(stages, name).argv})
             log(f"{prefix[name]}: done in {wall:.0f} s")
             started_s = (started_at or handed_over) - run_start
             ended(StageResult(name, "ran", wall, started_s, time.time() - run_start))
@@ -249,6 +219,34 @@ def run_stages(
     if failures:
         raise failures[0]
     return results
+
+
+def begin_stage(root: Path, stage: Stage, fp: str, prefix: str, log) -> StageResult | tuple[Path, bool]:
+    """Skip `stage` (its record says it finished with fingerprint `fp` and its done file exists: its
+    result), or prepare it to run (a clean output folder unless it resumes, a "running" record): its log's
+    path and whether it resumes."""
+    record_path = root / STAGES_DIR / f"{stage.name}.json"
+    record = json.loads(record_path.read_text()) if record_path.is_file() else {}
+    if record.get("fingerprint") == fp and record.get("status") == "done" and stage.done_file.exists():
+        log(f"{prefix}: done earlier ({record['wall_s']:.0f} s), skipped")
+        return StageResult(stage.name, "skipped", record["wall_s"])
+    resume = record.get("fingerprint") == fp and stage.output.exists() and stage.can_resume()
+    if stage.output.exists() and not resume:
+        shutil.rmtree(stage.output)
+    log_path = root / LOGS_DIR / f"{stage.name}.log"
+    earlier = killed_wall_s(record, log_path) if resume else 0.0
+    log(f"{prefix}: {'resuming' if resume else 'running'} (log {log_path})")
+    write_json_atomic(
+        record_path,
+        {
+            "fingerprint": fp,
+            "status": "running",
+            "argv": stage.argv,
+            "started": time.time(),
+            "wall_s_before": earlier,
+        },
+    )
+    return log_path, resume
 
 
 def killed_wall_s(record: dict, log_path: Path) -> float:
