@@ -11,8 +11,9 @@ fires, moves by the policy's beliefs, choosing by what the robot feels:
 - holding the object (the last gripper command was "close" and the fingers rest apart, on something):
   carry it so that the object, where the policy believes it sits in the hand, comes over the anchored goal,
   lower it and, where the task ends with the object let go (`release`), open the gripper and rise;
-- not holding it, with `grasp`: open, rise above the object where the policy believes it now, descend,
-  close, lift and, if the fingers now hold it, carry it to the anchored goal as above;
+- not holding it, with `grasp`: open, rise above the object where the policy believes it now (at the
+  task's rest height: an object not held lies on the table), descend, close, lift and, if the fingers now
+  hold it, carry it to the anchored goal as above;
 - not holding it, without `grasp` (a task whose object is pushed, never lifted): push the object, where
   the policy believes it now, onto the anchored goal with the closed fingers, in straight legs as the
   scripted demos push (along x to the goal's row, then along y onto it), each leg planned from where the
