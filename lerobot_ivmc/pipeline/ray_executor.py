@@ -44,10 +44,11 @@ class RayExecutor:
     def __init__(self, address: str | None = None, num_cpus: int | None = None, log=print):
         try:
             import ray
-        except ImportError as error:
-            raise ImportError(
-                "--executor.type=ray needs Ray: pip install 'lerobot_policy_ivmc[ray]' (or pip install ray)."
-            ) from error
+        except ImportError:  # a one-line refusal (cli.USER_ERRORS), not a traceback
+            raise ValueError(
+                "--executor.type=ray needs Ray: pip install 'lerobot_policy_ivmc[ray]' (or pip install ray), "
+                "or drop --executor.type=ray."
+            ) from None
         self.ray = ray
         self.owns_cluster = not ray.is_initialized()
         if self.owns_cluster:

@@ -157,3 +157,9 @@ def test_several_tasks_are_studies_of_their_own_side_by_side_on_one_cluster(tmp_
     assert overlaps(spans), spans
     with pytest.raises(ValueError, match="name each task once"):
         split_tasks(["--task=[push,push]"])
+
+
+def test_without_ray_the_ray_executor_is_refused_in_one_line(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(sys.modules, "ray", None)  # as if Ray were not installed
+    with pytest.raises(ValueError, match=r"needs Ray: pip install 'lerobot_policy_ivmc\[ray\]'"):
+        RayExecutor()
