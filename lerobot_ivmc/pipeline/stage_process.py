@@ -40,7 +40,9 @@ def guard(group: int) -> int:
 
 
 def main() -> None:
-    ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+    prctl = getattr(ctypes.CDLL(None, use_errno=True), "prctl", None)
+    if prctl is not None:  # Linux; elsewhere Ray's killing of a dead worker's children sets the guard off
+        prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
     if str(os.getppid()) != os.environ.get(PARENT_PID_VARIABLE, str(os.getppid())):
         sys.exit(1)  # the parent died before the death signal was armed
     guard(os.getpgid(0))
