@@ -11,6 +11,7 @@ checks that both datasets hold the same table.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import statistics
 import tempfile
 import time
@@ -20,6 +21,7 @@ import pyarrow.parquet as pq
 
 from lerobot_ivmc.datasets import expert_attempts, staging
 from lerobot_ivmc.datasets.assembler import EpisodeAssembler, batched_image_embedding, quiet_datasets
+from lerobot_ivmc.datasets.collect import recorder_args
 from lerobot_ivmc.datasets.collect_config import CollectConfig
 
 
@@ -27,14 +29,9 @@ def assemble(cfg: CollectConfig, episodes: list[staging.StagedEpisode], root: Pa
     """Seconds per demo to append `episodes` to a new dataset in `root` (finalized)."""
     assembler = EpisodeAssembler(cfg, root)
     start = time.perf_counter()
-    with quiet_datasets():
-        if batched:
-            with batched_image_embedding():
-                for episode in episodes:
-                    assembler.append(episode)
-        else:
-            for episode in episodes:
-                assembler.append(episode)
+    with quiet_datasets(), batched_image_embedding() if batched else contextlib.nullcontext():
+        for episode in episodes:
+            assembler.append(episode)
     assembler.dataset.finalize()
     return (time.perf_counter() - start) / len(episodes)
 
@@ -49,16 +46,7 @@ def main() -> None:
         tmp = Path(tmp)
         cfg = CollectConfig(task=args.task, num_episodes=args.episodes, root=tmp / "unused")
         (tmp / "staged").mkdir()
-        recorder = expert_attempts.Recorder(
-            cfg.task,
-            cfg.image_size,
-            cfg.split,
-            cfg.seed,
-            tmp / "staged",
-            cfg.action_noise,
-            cfg.episode_steps,
-            cfg.render_style,
-        )
+        recorder = expert_attempts.Recorder(*recorder_args(cfg, tmp / "staged"))
         successes, _ = staging.scan_attempts(tmp / "staged")
         attempt = 0
         while len(successes) < args.episodes:

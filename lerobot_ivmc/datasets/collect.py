@@ -57,7 +57,7 @@ def _plan(start: int, need: int, successes: dict, failures: set) -> list[int]:
     return attempts
 
 
-def _recorder_args(cfg: CollectConfig, episodes_dir: Path) -> tuple:
+def recorder_args(cfg: CollectConfig, episodes_dir: Path) -> tuple:
     """The arguments of `expert_attempts.Recorder` (and of `expert_attempts.init_worker`, which builds one
     per worker)."""
     return (
@@ -87,7 +87,7 @@ def _make_pool(cfg: CollectConfig, episodes_dir: Path) -> multiprocessing.pool.P
     return context.Pool(
         cfg.num_workers,
         initializer=expert_attempts.init_worker,
-        initargs=_recorder_args(cfg, episodes_dir),
+        initargs=recorder_args(cfg, episodes_dir),
     )
 
 
@@ -128,7 +128,7 @@ def _run_collection(cfg: CollectConfig, work: Path, summary: CollectSummary) -> 
                         f"(staged episodes are kept in {episodes_dir})."
                     )
                 if cfg.num_workers == 0:
-                    recorder = recorder or expert_attempts.Recorder(*_recorder_args(cfg, episodes_dir))
+                    recorder = recorder or expert_attempts.Recorder(*recorder_args(cfg, episodes_dir))
                     results = map(recorder.record, attempts)
                 else:
                     pool = pool or _make_pool(cfg, episodes_dir)

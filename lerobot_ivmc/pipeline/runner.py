@@ -196,20 +196,20 @@ def run_stages(
                 if isinstance(begun, StageResult):
                     ended(begun)
                     continue
-                executor.start(stage, *begun)
-                running[stage.name] = (time.time(), *begun)
+                log_path, resume, earlier = begun
+                executor.start(stage, log_path, resume)
+                running[stage.name] = (time.time(), earlier)
             if not running:
                 break
             name, outcome, started_at = executor.wait_any()
-            handed_over, log_path, resume = running.pop(name)
+            handed_over, earlier = running.pop(name)
             if isinstance(outcome, PipelineError):
                 log(f"{prefix[name]}: failed")
                 failures.append(outcome)
                 continue
-            record_path = root / STAGES_DIR / f"{name}.json"
-            wall = json.loads(record_path.read_text())["wall_s_before"] + outcome
+            wall = earlier + outcome
             record = {"fingerprint": fingerprints[name], "status": "done", "wall_s": wall}
-            write_json_atomic(record_path, {**record, "argv": find_stage(stages, name).argv})
+            write_json_atomic(record_file(root, name), {**record, "argv": find_stage(stages, name).argv})
             log(f"{prefix[name]}: done in {wall:.0f} s")
             started_s = (started_at or handed_over) - run_start
             ended(StageResult(name, "ran", wall, started_s, time.time() - run_start))
@@ -221,11 +221,18 @@ def run_stages(
     return results
 
 
-def begin_stage(root: Path, stage: Stage, fp: str, prefix: str, log) -> StageResult | tuple[Path, bool]:
+def record_file(root: Path, name: str) -> Path:
+    """The record of stage `name` of the study in `root`."""
+    return root / STAGES_DIR / f"{name}.json"
+
+
+def begin_stage(
+    root: Path, stage: Stage, fp: str, prefix: str, log
+) -> StageResult | tuple[Path, bool, float]:
     """Skip `stage` (its record says it finished with fingerprint `fp` and its done file exists: its
     result), or prepare it to run (a clean output folder unless it resumes, a "running" record): its log's
-    path and whether it resumes."""
-    record_path = root / STAGES_DIR / f"{stage.name}.json"
+    path, whether it resumes, and the wall time its killed runs spent."""
+    record_path = record_file(root, stage.name)
     record = json.loads(record_path.read_text()) if record_path.is_file() else {}
     if record.get("fingerprint") == fp and record.get("status") == "done" and stage.done_file.exists():
         log(f"{prefix}: done earlier ({record['wall_s']:.0f} s), skipped")
@@ -246,7 +253,7 @@ def begin_stage(root: Path, stage: Stage, fp: str, prefix: str, log) -> StageRes
             "wall_s_before": earlier,
         },
     )
-    return log_path, resume
+    return log_path, resume, earlier
 
 
 def killed_wall_s(record: dict, log_path: Path) -> float:
