@@ -2,9 +2,13 @@
 throughput work against today's, for recovery none and min_unc, all measured in this one run.
 
 Settings compared (the same checkpoint, test scenes and seeds):
-  before  one process (SyncVectorEnv), the "fetch" render style, LeRobot's 10 rendered episodes;
-  fast    one process, the "fast" render style, no rendered episodes;
-  async   one process per sub-env (`--eval.use_async_envs=true`, forkserver), "fast", none rendered.
+  before  one process (SyncVectorEnv), the "fetch" render style, LeRobot's 10 rendered episodes, finished
+          sub-envs autoreset into unseeded episodes (`--park_finished_envs=false`);
+  fast    one process, the "fast" render style, no rendered episodes, autoreset as before;
+  parked  as fast, with finished sub-envs parked until the batch ends (today's default);
+  async   one process per sub-env (`--eval.use_async_envs=true`, forkserver), "fast", none rendered, parked.
+Parking changes no episode: the benchmark checks that each setting's per-episode results equal the fast
+setting's (success, u, recoveries), and says so.
 Each eval runs as its own `lerobot-ivmc-eval` process, start-up included. ("before" omits one cost of the
 old code: it rendered 256-px frames of every step until its recovery videos were found; the videos are now
 made from the camera images the policy saw.) A checkpoint without a foresight head gets an untrained one
@@ -32,10 +36,23 @@ from pathlib import Path
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
 
 SETTINGS = {
-    "before": ["--eval.use_async_envs=false", "--env.render_style=fetch", "--max_episodes_rendered=10"],
-    "fast": ["--eval.use_async_envs=false", "--env.render_style=fast", "--max_episodes_rendered=0"],
+    "before": [
+        "--eval.use_async_envs=false",
+        "--env.render_style=fetch",
+        "--max_episodes_rendered=10",
+        "--park_finished_envs=false",
+    ],
+    "fast": [
+        "--eval.use_async_envs=false",
+        "--env.render_style=fast",
+        "--max_episodes_rendered=0",
+        "--park_finished_envs=false",
+    ],
+    "parked": ["--eval.use_async_envs=false", "--env.render_style=fast", "--max_episodes_rendered=0"],
     "async": ["--eval.use_async_envs=true", "--env.render_style=fast", "--max_episodes_rendered=0"],
 }
+# What an episode's result is made of: equal between settings of the same render style.
+EPISODE_KEYS = ("success", "max_uncertainty", "recoveries", "subtasks", "seed")
 
 
 def with_foresight_head(policy_path: Path, out: Path) -> Path:
@@ -73,7 +90,8 @@ def run_eval(policy_path: Path, out: Path, args: argparse.Namespace, mode: str, 
     if result.returncode != 0:
         raise SystemExit(f"{' '.join(command)} failed:\n{result.stderr[-2000:]}")
     info = json.loads((out / "eval_info.json").read_text())
-    return {"wall_s": wall, "success": info["aggregated"]["pc_success"]}
+    episodes = [{key: episode.get(key) for key in EPISODE_KEYS} for episode in info["per_episode"]]
+    return {"wall_s": wall, "success": info["aggregated"]["pc_success"], "episodes": episodes}
 
 
 def main() -> None:
@@ -86,7 +104,12 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=100)
     parser.add_argument("--batch-size", type=int, default=10)
     parser.add_argument("--modes", nargs="+", default=["none", "min_unc"])
+    parser.add_argument(
+        "--settings", nargs="+", default=list(SETTINGS), choices=list(SETTINGS), help="before comes first"
+    )
     args = parser.parse_args()
+    if args.settings[0] != "before":
+        parser.error("--settings must start with before: the ratios are against it.")
 
     with tempfile.TemporaryDirectory() as tmp:
         policy_path = with_foresight_head(args.policy_path, Path(tmp) / "checkpoint")
@@ -95,13 +118,18 @@ def main() -> None:
             runs = {
                 name: run_eval(policy_path, Path(tmp) / f"{mode}_{name}", args, mode, setting)
                 for name, setting in SETTINGS.items()
+                if name in args.settings
             }
             before = runs["before"]["wall_s"]
             for name, run in runs.items():
                 rate = args.episodes / run["wall_s"] * 60
+                same = ""
+                if name not in ("before", "fast") and "fast" in runs:
+                    equal = run["episodes"] == runs["fast"]["episodes"]
+                    same = f", episodes as fast: {'same' if equal else 'DIFFER'}"
                 print(
                     f"  {mode:<8} {name:<7} {run['wall_s']:7.1f} s  {rate:6.1f} episodes/min  "
-                    f"{before / run['wall_s']:5.2f}x before  (success {run['success']:.0f}%)"
+                    f"{before / run['wall_s']:5.2f}x before  (success {run['success']:.0f}%{same})"
                 )
 
 

@@ -57,10 +57,14 @@ class IvmcEvalConfig(EvalPipelineConfig):
         recovery: the recovery settings.
         max_episodes_rendered: episodes LeRobot's `eval_policy` renders into `videos/` at
             `--env.render_size` (0: none; recovery videos are made apart from these).
+        park_finished_envs: a sub-env whose episode ended before its batch's last repeats its final
+            observation instead of simulating an unseeded episode nobody reads (false: LeRobot's way; the
+            same per-episode results, slower).
     """
 
     recovery: RecoveryConfig = field(default_factory=RecoveryConfig)
     max_episodes_rendered: int = DEFAULT_EPISODES_RENDERED
+    park_finished_envs: bool = True
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -68,9 +72,12 @@ class IvmcEvalConfig(EvalPipelineConfig):
             raise ValueError(f"--max_episodes_rendered must be >= 0, got {self.max_episodes_rendered}.")
 
 
-def make_recorded_vector_env(env_cfg: IvmcEnv, n_envs: int, use_async: bool = False) -> gym.vector.VectorEnv:
-    """The vector env LeRobot's `make_env` would build, with a `MilestoneRecorder` on each sub-env."""
-    return make_vector_env(env_cfg, n_envs, use_async, wrap=MilestoneRecorder)
+def make_recorded_vector_env(
+    env_cfg: IvmcEnv, n_envs: int, use_async: bool = False, park: bool = True
+) -> gym.vector.VectorEnv:
+    """The vector env LeRobot's `make_env` would build, with a `MilestoneRecorder` on each sub-env (and
+    finished sub-envs parked, as `make_vector_env` says)."""
+    return make_vector_env(env_cfg, n_envs, use_async, wrap=MilestoneRecorder, park=park)
 
 
 def episode_order(per_env: list[list], n_episodes: int) -> list:
@@ -136,7 +143,9 @@ def run_evaluation(cfg: IvmcEvalConfig, output_dir: Path, ignore_stored_threshol
             )
     logger.info(pformat(asdict(cfg)))
     set_seed(cfg.seed)
-    env = make_recorded_vector_env(cfg.env, cfg.eval.batch_size, cfg.eval.use_async_envs)
+    env = make_recorded_vector_env(
+        cfg.env, cfg.eval.batch_size, cfg.eval.use_async_envs, park=cfg.park_finished_envs
+    )
     loaded = load_policy(cfg)
     policy = loaded.policy
     controller, video_store = None, None

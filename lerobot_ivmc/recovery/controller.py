@@ -101,7 +101,8 @@ class IntrospectiveController(BVMCRolloutWrapper):
         window: the sliding window's length.
         env_state_stats: (mean, std) of `observation.environment_state`, to read the grip point's position
             from the normalised observation (the first three entries).
-        seed: seeds the random draws of rand and init, and min_unc's candidate noise.
+        seed: seeds the random draws of rand and init, and min_unc's candidate noise (each rollout its own
+            streams, `_draws`).
         observers: shown every step's observation batch and every finished batch's trace.
         state_stats: (mean, std) of `observation.state`, to read the finger joints (its last two entries);
             required by `anchor`, which decides by them whether the robot holds the object.
@@ -144,8 +145,8 @@ class IntrospectiveController(BVMCRolloutWrapper):
         self.threshold = np.inf if recovery.mode == "none" or threshold is None else float(threshold)
         self.window = window
         self.env_state_mean, self.env_state_std = env_state_stats
-        self.rng = np.random.default_rng(seed)
-        self.generator = torch.Generator().manual_seed(seed)
+        self.seed = seed
+        self._row_draws: dict[int, tuple[np.random.Generator, torch.Generator]] = {}
         self.candidate_noise = (
             recovery.candidate_noise
             if recovery.candidate_noise is not None
@@ -185,7 +186,17 @@ class IntrospectiveController(BVMCRolloutWrapper):
         self.last_gripper = np.full(batch_size, GRIPPER_OPEN, dtype=np.int64)
         self.initial_grip = grip.copy()
         self.step = 0
+        self._row_draws = {}
         self.traces.append(BatchTrace(events=[[] for _ in range(batch_size)]))
+
+    def _draws(self, row: int) -> tuple[np.random.Generator, torch.Generator]:
+        """Rollout `row`'s own random streams (numpy, torch) in the batch under way, seeded by (seed, batch,
+        row): what one rollout draws does not depend on whether or when the others recover."""
+        if row not in self._row_draws:
+            stream = np.random.SeedSequence([self.seed, max(len(self.traces) - 1, 0), row])
+            torch_draws = torch.Generator().manual_seed(int(stream.generate_state(1)[0]))
+            self._row_draws[row] = (np.random.default_rng(stream), torch_draws)
+        return self._row_draws[row]
 
     def grip_positions(self, batch: dict[str, Tensor]) -> np.ndarray:
         """(B, 3) world positions of the grip point, from the normalised environment state."""
@@ -253,9 +264,10 @@ class IntrospectiveController(BVMCRolloutWrapper):
         choice = self.recovery.min_unc_choice
         if choice == "mean":
             return prediction.mean_action[row].cpu().numpy()
-        candidates = widen_candidates(prediction.samples[row : row + 1], self.candidate_noise, self.generator)
+        rng, generator = self._draws(row)
+        candidates = widen_candidates(prediction.samples[row : row + 1], self.candidate_noise, generator)
         if choice == "random":
-            return candidates[0, int(self.rng.integers(candidates.shape[1]))].cpu().numpy()
+            return candidates[0, int(rng.integers(candidates.shape[1]))].cpu().numpy()
         foreseen = self.policy.foresee(prediction.embedding[row : row + 1], candidates)
         return candidates[0, int(foreseen[0].argmin())].cpu().numpy()
 
@@ -288,14 +300,17 @@ class IntrospectiveController(BVMCRolloutWrapper):
             )
             event_extra = {"backtrack_to_step": manoeuvre.target.step}
         elif mode == "rand":
-            manoeuvre, event_extra = RandomMoves(cfg.recovery_steps, cfg.rand_step_scale, self.rng), {}
+            manoeuvre, event_extra = (
+                RandomMoves(cfg.recovery_steps, cfg.rand_step_scale, self._draws(row)[0]),
+                {},
+            )
         else:
             manoeuvre = MoveToInit(
                 self.initial_grip[row],
                 cfg.init_sphere_radius,
                 cfg.recovery_steps,
                 cfg.move_tolerance,
-                self.rng,
+                self._draws(row)[0],
             )
             event_extra = {"target": manoeuvre.target.round(4).tolist()}
         self.fifos[row].clear()

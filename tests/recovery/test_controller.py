@@ -33,8 +33,9 @@ def to_batch(observation: dict) -> dict[str, torch.Tensor]:
 def scripted_policy(
     uncertainties: list[float], move: list[float], gripper: float = 0.0, **config
 ) -> BVMCPolicy:
-    """A bvmc (random weights, foresight head) whose step t reports `uncertainties[t]` and whose mean
-    action is the constant `move` with the gripper command `gripper` (kept: 0), so its path is known."""
+    """A bvmc (random weights, foresight head) whose step t reports `uncertainties[t]` (a number, or one
+    per rollout of the batch) and whose mean action is the constant `move` with the gripper command
+    `gripper` (kept: 0), so its path is known."""
     torch.manual_seed(0)
     policy = BVMCPolicy(make_config(BVMCConfig, num_samples=8, **config))
     policy.attach_foresight()
@@ -46,8 +47,10 @@ def scripted_policy(
         prediction = sample(batch, *args, **kwargs)
         t = min(step["t"], len(uncertainties) - 1)
         step["t"] += 1
-        mean = torch.tensor([[*move, gripper]], dtype=prediction.mean_action.dtype)
-        return dataclasses.replace(prediction, uncertainty=torch.tensor([uncertainties[t]]), mean_action=mean)
+        rows = prediction.mean_action.shape[0]
+        mean = torch.tensor([[*move, gripper]], dtype=prediction.mean_action.dtype).repeat(rows, 1)
+        uncertainty = torch.tensor(np.atleast_1d(uncertainties[t]), dtype=torch.float32)
+        return dataclasses.replace(prediction, uncertainty=uncertainty, mean_action=mean)
 
     policy.sample = scripted
     return policy
@@ -266,6 +269,45 @@ def test_rand_and_init_move_then_reset_the_memory(mode: str, phase: int) -> None
         assert np.linalg.norm(target - grips[0]) <= cfg.init_sphere_radius + 1e-4
         end = inside[-1] + 1
         assert np.linalg.norm(grips[end] - target) <= cfg.move_tolerance or len(inside) == cfg.recovery_steps
+
+
+def run_batch(controller: IntrospectiveController, steps: int, seeds: tuple[int, ...]) -> np.ndarray:
+    """Step one pick_place env per seed with the controller, as one batch; the (T, B, 4) actions."""
+    envs = [make_task_env("pick_place", image_size=64) for _ in seeds]
+    observations = [env.reset(seed=seed)[0] for env, seed in zip(envs, seeds, strict=True)]
+    controller.reset()
+    actions = []
+    for _ in range(steps):
+        rows = [to_batch(observation) for observation in observations]
+        batch = {key: torch.cat([row[key] for row in rows]) for key in rows[0]}
+        actions.append(controller.select_action(batch).numpy())
+        observations = [env.step(a)[0] for env, a in zip(envs, actions[-1], strict=True)]
+    for env in envs:
+        env.close()
+    return np.stack(actions)
+
+
+@pytest.mark.parametrize("mode", ["rand", "init"])
+def test_a_rollouts_random_draws_do_not_depend_on_when_the_others_recover(mode: str) -> None:
+    """Rollout 0 recovers at step 6 in both runs; rollout 1 at step 3 in one, never in the other. Rollout
+    0's recovery is the same: each rollout draws from its own seeded streams."""
+    first_draws = {}
+    for other_recovers in (True, False):
+        stream = [[0.0, 0.0] for _ in range(40)]
+        stream[6][0] = 1.0
+        if other_recovers:
+            stream[3][1] = 1.0
+        policy = scripted_policy(stream, move=[0.0, 0.3, 0.0])
+        cfg = RecoveryConfig(mode=mode, window=1, initial_interval=0, recovery_steps=10)
+        controller = IntrospectiveController(
+            policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS, seed=3
+        )
+        actions = run_batch(controller, steps=20, seeds=(0, 1))
+        events = controller.traces[-1].events
+        assert [e["step"] for e in events[0]] == [6] and len(events[1]) == int(other_recovers)
+        first_draws[other_recovers] = (actions[:, 0], events[0])
+    np.testing.assert_array_equal(first_draws[True][0], first_draws[False][0])
+    assert first_draws[True][1] == first_draws[False][1]
 
 
 def test_mode_none_records_but_never_recovers() -> None:
