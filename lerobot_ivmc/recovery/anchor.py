@@ -36,6 +36,7 @@ from lerobot_ivmc.envs.fetch_env import GRIPPER_CLOSE, GRIPPER_OPEN
 from lerobot_ivmc.experts.push import APPROACH_GAP, CONTACT_X, CONTACT_Y, HOVER, PUSH_SPEED
 from lerobot_ivmc.recovery.manoeuvres import (
     CARRY_TO_GOAL,
+    LOOK,
     PUSH_TO_GOAL,
     REGRASP,
     Manoeuvre,
@@ -203,6 +204,16 @@ def carry_to_goal(
         waypoints.append(Waypoint(place, GRIPPER_OPEN, hold=FINGER_STEPS))
         waypoints.append(Waypoint(place + np.array([0.0, 0.0, RELEASE_LIFT]), GRIPPER_OPEN))
     return WaypointMoves(waypoints, steps, tolerance, CARRY_TO_GOAL, place, reset_memory=release)
+
+
+def look(grip: np.ndarray, gripper: int, steps: int, tolerance: float) -> WaypointMoves:
+    """Hold the grip point still for `steps` steps with the gripper command `gripper` (the last one sent:
+    a held object stays held), then hand over to anchor's manoeuvre (`then_anchor`). The controller resets
+    the memory as the look starts, so the beliefs anchor then acts on come from these steps' frames."""
+    hold = Waypoint(np.asarray(grip, dtype=np.float64).copy(), gripper, hold=steps)
+    moves = WaypointMoves([hold], steps + 1, tolerance, LOOK, hold.position.copy(), reset_memory=False)
+    moves.then_anchor = True
+    return moves
 
 
 def on_table(obj: np.ndarray, rest_height: float) -> np.ndarray:

@@ -71,6 +71,11 @@ class RecoveryConfig:
             the task's geometry: an object anchor does not hold is re-grasped or pushed at this height, not
             at the height the object head believes (whose errors put the fingers over the object). None:
             from the task; NaN: the believed height.
+        anchor_look_steps: before anchor moves, the policy's memory is reset and the arm holds still (the
+            gripper as last commanded) for this many steps, so the object's position it acts on is believed
+            from the camera, not from the memory whose belief failed (push's failures: the memory believes
+            the cube on the goal while the camera shows it elsewhere). 0: act at once on the beliefs of the
+            step the trigger fired.
         max_videos: at most this many videos of episodes with a recovery, the uncertainty trace drawn under
             the frames (frames are rendered for every episode until they are found; 0 disables).
     """
@@ -93,6 +98,7 @@ class RecoveryConfig:
     anchor_release: bool | None = None
     anchor_grasp: bool | None = None
     anchor_rest_height: float | None = None
+    anchor_look_steps: int = 0
     max_videos: int = 4
 
     def for_task(
@@ -146,13 +152,21 @@ class RecoveryConfig:
             raise ValueError(
                 f"--recovery.min_unc_memory must be one of {MIN_UNC_MEMORY}, got {self.min_unc_memory!r}."
             )
-        anchor_settings = (self.anchor_steps, self.anchor_release, self.anchor_grasp, self.anchor_rest_height)
-        if anchor_settings != (40, None, None, None) and self.mode != "anchor":
+        anchor_settings = (
+            self.anchor_steps,
+            self.anchor_release,
+            self.anchor_grasp,
+            self.anchor_rest_height,
+            self.anchor_look_steps,
+        )
+        if anchor_settings != (40, None, None, None, 0) and self.mode != "anchor":
             raise ValueError(
-                "--recovery.anchor_steps, anchor_release, anchor_grasp and anchor_rest_height set the anchor "
-                f"mode; they have no effect with --recovery.mode={self.mode}: drop them or use "
-                "--recovery.mode=anchor."
+                "--recovery.anchor_steps, anchor_release, anchor_grasp, anchor_rest_height and "
+                "anchor_look_steps set the anchor mode; they have no effect with "
+                f"--recovery.mode={self.mode}: drop them or use --recovery.mode=anchor."
             )
+        if self.anchor_look_steps < 0:
+            raise ValueError(f"--recovery.anchor_look_steps must be >= 0, got {self.anchor_look_steps}.")
         if self.anchor_rest_height is not None and math.isinf(self.anchor_rest_height):
             raise ValueError(
                 f"--recovery.anchor_rest_height is a height in metres (or nan: the believed one), got "

@@ -25,6 +25,7 @@ from lerobot_ivmc.recovery.anchor import (
     BeliefAnchor,
     carry_to_goal,
     is_holding,
+    look,
     on_goal,
     push_to_goal,
     regrasp,
@@ -271,25 +272,36 @@ class IntrospectiveController(BVMCRolloutWrapper):
         foreseen = self.policy.foresee(prediction.embedding[row : row + 1], candidates)
         return candidates[0, int(foreseen[0].argmin())].cpu().numpy()
 
+    def _anchor(self, row: int, grip: np.ndarray, fingers: np.ndarray) -> tuple[Manoeuvre, dict]:
+        """Anchor's manoeuvre for rollout `row` from what it feels and believes now, and what the recovery
+        event reports of it."""
+        cfg = self.recovery
+        holding = self._holding(row, fingers)
+        if holding:
+            manoeuvre = self._carry(row, grip)
+        elif cfg.anchor_grasp:
+            manoeuvre = regrasp(
+                grip,
+                self.object_beliefs[row],
+                cfg.anchor_steps,
+                cfg.move_tolerance,
+                cfg.anchor_rest_height,
+            )
+        else:
+            manoeuvre = self._push(row, grip, PUSH_LEGS)
+        return manoeuvre, {"holding": holding, "target": manoeuvre.target.round(4).tolist()}
+
     def _begin_recovery(
         self, row: int, grip: np.ndarray, window_sum: float, fingers: np.ndarray | None
     ) -> Manoeuvre:
         mode, cfg = self.recovery.mode, self.recovery
-        if mode == "anchor":
-            holding = self._holding(row, fingers)
-            if holding:
-                manoeuvre = self._carry(row, grip)
-            elif cfg.anchor_grasp:
-                manoeuvre = regrasp(
-                    grip,
-                    self.object_beliefs[row],
-                    cfg.anchor_steps,
-                    cfg.move_tolerance,
-                    cfg.anchor_rest_height,
-                )
-            else:
-                manoeuvre = self._push(row, grip, PUSH_LEGS)
-            event_extra = {"holding": holding, "target": manoeuvre.target.round(4).tolist()}
+        if mode == "anchor" and cfg.anchor_look_steps > 0:
+            self._apply(row, MemoryChange(None))  # the look's beliefs: from its own frames
+            gripper = int(self.last_gripper[row])
+            manoeuvre = look(grip, gripper, cfg.anchor_look_steps, cfg.move_tolerance)
+            event_extra = {"look_steps": cfg.anchor_look_steps}
+        elif mode == "anchor":
+            manoeuvre, event_extra = self._anchor(row, grip, fingers)
         elif mode == "min_unc":
             manoeuvre = BacktrackThenFollow(
                 list(self.fifos[row]),
@@ -336,7 +348,10 @@ class IntrospectiveController(BVMCRolloutWrapper):
                     self._apply(row, change)
                 if manoeuvre.finished:
                     self.manoeuvres[row] = None
-                    if manoeuvre.then_carry and self._holding(row, fingers):
+                    if manoeuvre.then_anchor:  # the look is over: anchor on what it showed
+                        self.manoeuvres[row], event_extra = self._anchor(row, grip[row], fingers)
+                        self.traces[-1].events[row][-1].update(event_extra)
+                    elif manoeuvre.then_carry and self._holding(row, fingers):
                         self.manoeuvres[row] = self._carry(row, grip[row])  # a re-grasp that held
                     elif manoeuvre.then_push and not on_goal(
                         self.object_beliefs[row], self.anchors[row].goal

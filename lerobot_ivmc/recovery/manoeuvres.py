@@ -16,8 +16,10 @@ from torch import Tensor
 
 from lerobot_ivmc.envs.fetch_env import GRIPPER_NOOP, GRIPPER_OPEN, POSITION_SCALE
 
-# Phases recorded per step in the traces (the last three: `anchor.py`'s manoeuvres).
-NORMAL, BACKTRACK, FOLLOW_MIN_UNC, RANDOM_MOVES, MOVE_TO_INIT, CARRY_TO_GOAL, PUSH_TO_GOAL, REGRASP = range(8)
+# Phases recorded per step in the traces (the last four: `anchor.py`'s manoeuvres).
+NORMAL, BACKTRACK, FOLLOW_MIN_UNC, RANDOM_MOVES, MOVE_TO_INIT, CARRY_TO_GOAL, PUSH_TO_GOAL, REGRASP, LOOK = (
+    range(9)
+)
 PHASE_NAMES = (
     "normal",
     "backtrack",
@@ -27,6 +29,7 @@ PHASE_NAMES = (
     "carry_to_goal",
     "push_to_goal",
     "regrasp",
+    "look",
 )
 
 
@@ -63,12 +66,14 @@ class MemoryChange:
 class Manoeuvre:
     """Base class: `phase` for the traces, `finished` once over; `then_carry`: once over, the controller
     carries a held object on (`anchor.py`'s re-grasp); `then_push`: once over, the controller may push the
-    object this many legs more (`anchor.py`'s push)."""
+    object this many legs more (`anchor.py`'s push); `then_anchor`: once over, the controller starts
+    anchor's manoeuvre (`anchor.py`'s look)."""
 
     phase: int = NORMAL
     finished: bool = False
     then_carry: bool = False
     then_push: int = 0
+    then_anchor: bool = False
 
     def advance(self, grip: np.ndarray) -> MemoryChange | None:
         raise NotImplementedError

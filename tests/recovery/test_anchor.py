@@ -29,7 +29,7 @@ from lerobot_ivmc.recovery.anchor import (
 )
 from lerobot_ivmc.recovery.config import RECOVERY_MODES, RecoveryConfig
 from lerobot_ivmc.recovery.controller import IntrospectiveController
-from lerobot_ivmc.recovery.manoeuvres import CARRY_TO_GOAL, NORMAL, PUSH_TO_GOAL, REGRASP
+from lerobot_ivmc.recovery.manoeuvres import CARRY_TO_GOAL, LOOK, NORMAL, PUSH_TO_GOAL, REGRASP
 
 STATE_IDENTITY = (torch.zeros(9), torch.ones(9))  # the batch carries raw joint positions
 WITH_GOAL_HEAD = {"goal_head": True, "training_mode": "sequence"}
@@ -202,6 +202,48 @@ def test_an_object_not_held_is_grasped_and_pushed_at_the_task_s_rest_height() ->
         RecoveryConfig(mode="anchor", anchor_rest_height=float("inf"))
 
 
+@pytest.mark.parametrize("look_steps", [0, 3])
+def test_a_look_with_a_fresh_memory_replaces_a_false_belief_before_anchor_pushes(look_steps: int) -> None:
+    """push's failures: the carried memory believes the cube on the goal while the camera shows it
+    elsewhere. Scripted here: the object head believes the cube on the target until the memory has been
+    reset, then sees it where it is. Without a look anchor acts on the false belief (nothing to push) and
+    the cube stays put; with `anchor_look_steps` it first resets the memory and holds still, then pushes
+    the cube it now sees onto the target."""
+    env = make_task_env("push", image_size=64)
+    observation, _ = env.reset(seed=0)
+    target = env.target_position.copy()
+    stream = [0.05] * 10 + [1.0] + [0.0] * 300  # fires at step 10, standing still until then
+    policy = scripted_policy(stream, move=[0.0, 0.0, 0.0], **WITH_GOAL_HEAD)
+    controller = anchor_controller(policy, anchor_grasp=False, anchor_look_steps=look_steps)
+    changes = recorded_changes(controller)
+    believing(policy, lambda: env.object_position if changes else target, [list(target)] * 300)
+    controller.reset()
+    grips, phases, success = [], [], False
+    for _ in range(150):
+        grips.append(env.grip_position)
+        action = controller.select_action(to_batch(observation))[0].numpy()
+        phases.append(controller.traces[-1].phase[-1][0])
+        observation, _, terminated, _, info = env.step(action)
+        success = success or bool(info["is_success"])
+        if terminated or (phases[-1] == NORMAL and len(phases) > 11 + look_steps):
+            break
+    env.close()
+    event = controller.traces[-1].events[0][0]
+    assert event["step"] == 10 and event["holding"] is False
+    if look_steps == 0:
+        assert not success and "look_steps" not in event
+        return
+    assert event["look_steps"] == look_steps and changes[0].memory is None  # reset as the look starts
+    assert phases[10 : 10 + look_steps] == [LOOK] * look_steps and phases[10 + look_steps] == PUSH_TO_GOAL
+    assert np.linalg.norm(grips[10 + look_steps] - grips[10]) < 0.01  # it held still while looking
+    np.testing.assert_allclose(event["target"][:2], target[:2], atol=1e-4)
+    assert success, "after the look, the push legs did not bring the cube onto the target"
+    with pytest.raises(ValueError, match="anchor_look_steps must be >= 0"):
+        RecoveryConfig(mode="anchor", anchor_look_steps=-1)
+    with pytest.raises(ValueError, match="no effect with --recovery.mode=init"):
+        RecoveryConfig(mode="init", anchor_look_steps=2)
+
+
 def test_anchor_fingers_apart_while_opening_are_not_holding() -> None:
     """Fingers between open and closed after an "open" command are letting go: a re-grasp, no carry."""
     stream = [0.2] * 3 + [1.0] + [0.0] * 100
@@ -219,7 +261,7 @@ def test_anchor_refuses_a_policy_without_the_goal_head() -> None:
         anchor_controller(policy)
 
 
-@pytest.mark.parametrize("mode", [m for m in RECOVERY_MODES if m != "none"])
+@pytest.mark.parametrize("mode", [m for m in RECOVERY_MODES if m != "none"] + ["anchor_look"])
 def test_recovery_reads_nothing_of_the_simulator_state(mode: str) -> None:
     """Each mode acts the same when the object's true position is withheld from the observation (NaN):
     it reads only the camera, the proprioception, the grip point's position and the policy's heads."""
@@ -230,8 +272,10 @@ def test_recovery_reads_nothing_of_the_simulator_state(mode: str) -> None:
 
     def rollout(withhold: bool) -> list[np.ndarray]:
         torch.manual_seed(1)
-        short = {"anchor_steps": 5} if mode == "anchor" else {"recovery_steps": 5}
-        cfg = RecoveryConfig(mode=mode, window=1, initial_interval=0, **short)
+        short = {"anchor_steps": 5} if mode.startswith("anchor") else {"recovery_steps": 5}
+        if mode == "anchor_look":
+            short["anchor_look_steps"] = 2
+        cfg = RecoveryConfig(mode=mode.removesuffix("_look"), window=1, initial_interval=0, **short)
         controller = IntrospectiveController(
             policy, cfg, threshold=0.0, window=1, env_state_stats=IDENTITY_STATS, state_stats=STATE_IDENTITY
         )
