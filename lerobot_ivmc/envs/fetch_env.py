@@ -253,13 +253,12 @@ class IvmcFetchEnv(gym.Env, EzPickle):
         return np.array([mujoco_utils.get_joint_qpos(self.model, self.data, j)[0] for j in FINGER_JOINTS])
 
     def is_grasped(self) -> bool:
-        """Both fingers touch the object."""
-        touching = set()
-        for contact in self.data.contact[: self.data.ncon]:
-            pair = {contact.geom1, contact.geom2}
-            if self._object_geom in pair:
-                touching.update(pair & set(self._finger_geoms))
-        return len(touching) == 2
+        """Both fingers touch the object (read from the contact arrays at once: a Python loop over the
+        contacts cost 0.6 ms a step)."""
+        ncon = self.data.ncon
+        geom1, geom2 = self.data.contact.geom1[:ncon], self.data.contact.geom2[:ncon]
+        others = np.concatenate([geom2[geom1 == self._object_geom], geom1[geom2 == self._object_geom]])
+        return len(set(others.tolist()) & set(self._finger_geoms)) == 2
 
     def object_lift(self) -> float:
         """Height of the object's centre above where it rests on the table, in metres."""
