@@ -206,14 +206,54 @@ def carry_to_goal(
     return WaypointMoves(waypoints, steps, tolerance, CARRY_TO_GOAL, place, reset_memory=release)
 
 
-def look(grip: np.ndarray, gripper: int, steps: int, tolerance: float) -> WaypointMoves:
-    """Hold the grip point still for `steps` steps with the gripper command `gripper` (the last one sent:
-    a held object stays held), then hand over to anchor's manoeuvre (`then_anchor`). The controller resets
-    the memory as the look starts, so the beliefs anchor then acts on come from these steps' frames."""
-    hold = Waypoint(np.asarray(grip, dtype=np.float64).copy(), gripper, hold=steps)
-    moves = WaypointMoves([hold], steps + 1, tolerance, LOOK, hold.position.copy(), reset_memory=False)
-    moves.then_anchor = True
-    return moves
+class LookFromStart(Manoeuvre):
+    """Locate the object afresh where a fresh memory learned to: rise, return to the grip position the
+    episode started from (every demo's first frames), reset the memory on arrival and hold still `steps`
+    steps, the gripper as last commanded; then hand over to anchor's manoeuvre (`then_anchor`), which acts on
+    what the object head believes from those frames. (From where the trigger fired the head is no help: on
+    push's failures it places the cube in front of the fingers, where the demos always have it, also with a
+    fresh memory.)
+
+    Args:
+        grip: the grip point now, (3,).
+        start: the grip point at the start of the episode, (3,).
+        gripper: the gripper command to keep.
+        steps: steps to hold still at the start pose with the fresh memory.
+        travel_steps: most steps of the way there.
+        tolerance: metres from the start pose that count as arrived.
+    """
+
+    phase = LOOK
+    then_anchor = True
+
+    def __init__(
+        self,
+        grip: np.ndarray,
+        start: np.ndarray,
+        gripper: int,
+        steps: int,
+        travel_steps: int,
+        tolerance: float,
+    ):
+        start = np.asarray(start, dtype=np.float64).copy()
+        self.target = start
+        self.gripper = gripper
+        waypoints = [Waypoint(rise_towards(grip, start), gripper), Waypoint(start, gripper)]
+        self.travel = WaypointMoves(waypoints, travel_steps, tolerance, LOOK, start, reset_memory=True)
+        self.steps_left = steps
+
+    def advance(self, grip: np.ndarray) -> MemoryChange | None:
+        if not self.travel.finished:
+            return self.travel.advance(grip)  # the memory reset, on arrival
+        if self.steps_left == 0:
+            self.finished = True
+        return None
+
+    def act(self, grip: np.ndarray, min_unc_action: Callable[[], np.ndarray]) -> np.ndarray:
+        if not self.travel.finished:
+            return self.travel.act(grip, min_unc_action)
+        self.steps_left -= 1
+        return move_towards(grip, self.target, self.gripper)
 
 
 def on_table(obj: np.ndarray, rest_height: float) -> np.ndarray:

@@ -71,11 +71,12 @@ class RecoveryConfig:
             the task's geometry: an object anchor does not hold is re-grasped or pushed at this height, not
             at the height the object head believes (whose errors put the fingers over the object). None:
             from the task; NaN: the believed height.
-        anchor_look_steps: before anchor moves, the policy's memory is reset and the arm holds still (the
-            gripper as last commanded) for this many steps, so the object's position it acts on is believed
-            from the camera, not from the memory whose belief failed (push's failures: the memory believes
-            the cube on the goal while the camera shows it elsewhere). 0: act at once on the beliefs of the
-            step the trigger fired.
+        anchor_look_steps: before anchor goes for an object it does not hold, the arm rises and returns to
+            the grip position the episode started from, the memory is reset there and the arm holds still
+            this many steps, so that the object is located as in every demo's first frames, not by the
+            memory whose belief failed (push's failures: the cube believed in front of the fingers, or on
+            the goal, while the camera shows it elsewhere). 0: act at once on the beliefs of the step the
+            trigger fired.
         max_videos: at most this many videos of episodes with a recovery, the uncertainty trace drawn under
             the frames (frames are rendered for every episode until they are found; 0 disables).
     """

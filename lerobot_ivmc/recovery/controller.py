@@ -23,9 +23,9 @@ from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy, MCPrediction
 from lerobot_ivmc.recovery.anchor import (
     PUSH_LEGS,
     BeliefAnchor,
+    LookFromStart,
     carry_to_goal,
     is_holding,
-    look,
     on_goal,
     push_to_goal,
     regrasp,
@@ -295,10 +295,16 @@ class IntrospectiveController(BVMCRolloutWrapper):
         self, row: int, grip: np.ndarray, window_sum: float, fingers: np.ndarray | None
     ) -> Manoeuvre:
         mode, cfg = self.recovery.mode, self.recovery
-        if mode == "anchor" and cfg.anchor_look_steps > 0:
-            self._apply(row, MemoryChange(None))  # the look's beliefs: from its own frames
+        if mode == "anchor" and cfg.anchor_look_steps > 0 and not self._holding(row, fingers):
             gripper = int(self.last_gripper[row])
-            manoeuvre = look(grip, gripper, cfg.anchor_look_steps, cfg.move_tolerance)
+            manoeuvre = LookFromStart(
+                grip,
+                self.initial_grip[row],
+                gripper,
+                cfg.anchor_look_steps,
+                cfg.anchor_steps,
+                cfg.move_tolerance,
+            )
             event_extra = {"look_steps": cfg.anchor_look_steps}
         elif mode == "anchor":
             manoeuvre, event_extra = self._anchor(row, grip, fingers)
