@@ -29,6 +29,13 @@ ASYNC_START_METHOD = "forkserver"
 NEW_EPISODE_OPTION = "ivmc_new_episode"
 
 
+def split_new_episode_flag(options: dict[str, Any] | None) -> tuple[bool, dict[str, Any] | None]:
+    """Whether `options` carry the new-episode flag, and the options left for the sub-env (None if none)."""
+    options = dict(options or {})
+    new_episode = bool(options.pop(NEW_EPISODE_OPTION, False))
+    return new_episode, options or None
+
+
 class ParkAfterEpisode(gym.Wrapper):
     """A sub-env that, once its episode has ended, repeats its final observation instead of starting an
     unseeded episode: the vector env's autoreset gets the final observation and info back, and every later
@@ -40,18 +47,12 @@ class ParkAfterEpisode(gym.Wrapper):
         super().__init__(env)
         self._final: tuple[Any, dict] | None = None  # (observation, info) of the ended episode
 
-    @property
-    def parked(self) -> bool:
-        """Whether the episode has ended and the sub-env now only repeats its final observation."""
-        return self._final is not None
-
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        options = dict(options or {})
-        new_episode = bool(options.pop(NEW_EPISODE_OPTION, False))
+        new_episode, options = split_new_episode_flag(options)
         if self._final is not None and not new_episode:
             return self._final
         self._final = None
-        return self.env.reset(seed=seed, options=options or None)
+        return self.env.reset(seed=seed, options=options)
 
     def step(self, action):
         if self._final is not None:
@@ -66,9 +67,7 @@ class NeverPark(gym.Wrapper):
     """A sub-env of a parking vector env that autoresets as LeRobot's do (it drops the new-episode flag)."""
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        options = dict(options or {})
-        options.pop(NEW_EPISODE_OPTION, None)
-        return self.env.reset(seed=seed, options=options or None)
+        return self.env.reset(seed=seed, options=split_new_episode_flag(options)[1])
 
 
 def new_episode_options(options: dict[str, Any] | None) -> dict[str, Any]:
