@@ -33,6 +33,7 @@ from lerobot_ivmc.pipeline.stage_names import (
     threshold_stage_name,
     train_stage_name,
 )
+from lerobot_ivmc.recovery.config import RecoveryConfig
 
 CHECKPOINT = LAST_PRETRAINED_MODEL
 CUDA = "cuda"
@@ -522,4 +523,15 @@ def eval_stage(
         output=out,
         done_file=out / EVAL_INFO_FILE,
         depends=[source],
+        settings=anchor_settings(mode),
     )
+
+
+def anchor_settings(mode: str | None) -> dict:
+    """For an anchor row, anchor's settings with today's defaults: they are chosen on validation scenes
+    (beyond the paper) and may change, which must redo the row. The paper's modes keep the paper's defaults
+    and no settings (so their rows keep their fingerprints)."""
+    if mode != "anchor":
+        return {}
+    config = asdict(RecoveryConfig(mode="anchor"))
+    return json.loads(json.dumps({k: v for k, v in config.items() if k.startswith("anchor_")}))

@@ -34,6 +34,7 @@ import numpy as np
 
 from lerobot_ivmc.envs.fetch_env import GRIPPER_CLOSE, GRIPPER_OPEN
 from lerobot_ivmc.experts.push import APPROACH_GAP, CONTACT_X, CONTACT_Y, HOVER, PUSH_SPEED
+from lerobot_ivmc.recovery.config import ANCHOR_GOAL_STEPS
 from lerobot_ivmc.recovery.manoeuvres import (
     CARRY_TO_GOAL,
     LOOK,
@@ -47,10 +48,6 @@ from lerobot_ivmc.recovery.manoeuvres import (
 # The fingers hold something when their joint positions sum to a gap between these (metres): fully
 # closed on nothing is ~0, fully open ~0.1; the cube holds them at ~0.048, the stick at ~0.025.
 HELD_GAP = (0.01, 0.09)
-# The anchored goal is the mean of the goals believed at this many least uncertain steps (one step's
-# belief is noisier: on pick_place's validation failures 50% of single-step anchors fell within the
-# target's 3 cm radius, 67% of 10-step means).
-ANCHOR_GOAL_STEPS = 10
 # Carry at least this high above the believed goal (metres), so the object clears the table on the way.
 CARRY_CLEARANCE = 0.05
 # The object is lowered to this height above the believed goal (metres) before it is let go.
@@ -81,9 +78,11 @@ def is_holding(finger_joints: np.ndarray) -> bool:
 
 
 class BeliefAnchor:
-    """One rollout's record of the goal the policy believed at each normal step, with its uncertainty."""
+    """One rollout's record of the goal the policy believed at each normal step, with its uncertainty; the
+    anchored goal is the mean over its `goal_steps` least uncertain steps."""
 
-    def __init__(self):
+    def __init__(self, goal_steps: int = ANCHOR_GOAL_STEPS):
+        self.goal_steps = goal_steps
         self.uncertainties: list[float] = []
         self.goals: list[np.ndarray] = []
 
@@ -94,10 +93,10 @@ class BeliefAnchor:
 
     @property
     def goal(self) -> np.ndarray:
-        """(3,) the mean of the goals believed at the `ANCHOR_GOAL_STEPS` least uncertain steps so far."""
+        """(3,) the mean of the goals believed at the `goal_steps` least uncertain steps so far."""
         if not self.goals:
             raise ValueError("No belief recorded yet: the trigger cannot fire before a normal step.")
-        least = np.argsort(self.uncertainties, kind="stable")[:ANCHOR_GOAL_STEPS]
+        least = np.argsort(self.uncertainties, kind="stable")[: self.goal_steps]
         return np.mean([self.goals[i] for i in least], axis=0)
 
 

@@ -11,6 +11,12 @@ from dataclasses import dataclass, replace
 RECOVERY_MODES = ("none", "rand", "init", "min_unc", "anchor")
 MIN_UNC_MEMORY = ("restore", "reset", "keep")
 MIN_UNC_CHOICE = ("foresight", "mean", "random")
+# anchor's goal is the mean of the goals believed at this many least uncertain steps by default. One step's
+# belief is noisy (pick_place's validation failures: 50% of single-step anchors within the target's 3 cm, 67%
+# of 10-step means); the 10 least uncertain steps can all fall after the goal belief drifted toward the
+# object (push: 89% within 3 cm against 100% for 30 steps), and 30 steps rescued as many or more on the
+# validation scenes of every policy tried (docs/RESULTS.md, "anchor's goal over 30 steps").
+ANCHOR_GOAL_STEPS = 30
 
 
 @dataclass
@@ -77,6 +83,9 @@ class RecoveryConfig:
             memory whose belief failed (push's failures: the cube believed in front of the fingers, or on
             the goal, while the camera shows it elsewhere). 0: act at once on the beliefs of the step the
             trigger fired.
+        anchor_goal_steps: anchor's goal is the mean of the goals the policy believed at this many least
+            uncertain steps so far (one step's belief is noisy; more steps also reach back to before the
+            goal belief drifted toward the object).
         max_videos: at most this many videos of episodes with a recovery, the uncertainty trace drawn under
             the frames (frames are rendered for every episode until they are found; 0 disables).
     """
@@ -100,6 +109,7 @@ class RecoveryConfig:
     anchor_grasp: bool | None = None
     anchor_rest_height: float | None = None
     anchor_look_steps: int = 0
+    anchor_goal_steps: int = ANCHOR_GOAL_STEPS
     max_videos: int = 4
 
     def for_task(
@@ -159,13 +169,16 @@ class RecoveryConfig:
             self.anchor_grasp,
             self.anchor_rest_height,
             self.anchor_look_steps,
+            self.anchor_goal_steps,
         )
-        if anchor_settings != (40, None, None, None, 0) and self.mode != "anchor":
+        if anchor_settings != (40, None, None, None, 0, ANCHOR_GOAL_STEPS) and self.mode != "anchor":
             raise ValueError(
-                "--recovery.anchor_steps, anchor_release, anchor_grasp, anchor_rest_height and "
-                "anchor_look_steps set the anchor mode; they have no effect with "
+                "--recovery.anchor_steps, anchor_release, anchor_grasp, anchor_rest_height, "
+                "anchor_look_steps and anchor_goal_steps set the anchor mode; they have no effect with "
                 f"--recovery.mode={self.mode}: drop them or use --recovery.mode=anchor."
             )
+        if self.anchor_goal_steps < 1:
+            raise ValueError(f"--recovery.anchor_goal_steps must be >= 1, got {self.anchor_goal_steps}.")
         if self.anchor_look_steps < 0:
             raise ValueError(f"--recovery.anchor_look_steps must be >= 0, got {self.anchor_look_steps}.")
         if self.anchor_rest_height is not None and math.isinf(self.anchor_rest_height):

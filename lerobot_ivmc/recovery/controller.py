@@ -181,7 +181,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
         )
         self.manoeuvres: list[Manoeuvre | None] = [None] * batch_size
         self.fifos = [deque(maxlen=self.recovery.backtrack_horizon) for _ in range(batch_size)]
-        self.anchors = [BeliefAnchor() for _ in range(batch_size)]
+        self.anchors = [BeliefAnchor(self.recovery.anchor_goal_steps) for _ in range(batch_size)]
         self.object_beliefs = np.zeros((batch_size, 3))  # the last step's believed object positions
         # The last gripper command other than no-op each rollout executed (the fingers' open start: open).
         self.last_gripper = np.full(batch_size, GRIPPER_OPEN, dtype=np.int64)

@@ -3,17 +3,21 @@ after it (hours of training at `lite`), so only a change of what a stage compute
 
 from __future__ import annotations
 
+import functools
+
 import pytest
 
 from lerobot_ivmc.pipeline import stages as stages_module
 from lerobot_ivmc.pipeline.runner import fingerprint
 from lerobot_ivmc.pipeline.stages import build_stages
 from lerobot_ivmc.pipeline.study import parse_config
+from lerobot_ivmc.recovery.config import RecoveryConfig
 
 # The fingerprints of `lerobot-ivmc-pipeline --task=pick_place --preset=lite --train.num_fc_layers=[1]
 # --output_dir=/studies/pick_place_lite` on a CPU with native bf16, as the code of 72da9bb (the running
 # lite studies') computed them. Change one only with a change of what its stage computes, knowing that every
-# study begun before redoes that stage and all after it.
+# study begun before redoes that stage and all after it. The anchor row's holds anchor's settings since its
+# goal became the mean over 30 least uncertain steps (10 before: cbf89424e54df36d).
 LITE_PICK_PLACE = {
     "collect": "a530cb8fe6fe2304",
     "train_vmc_fc1": "efc6c777afa13adb",
@@ -27,7 +31,7 @@ LITE_PICK_PLACE = {
     "eval_bvmc_fc1_rand": "0deae0bfbeed1352",
     "eval_bvmc_fc1_init": "cae409a12d99787b",
     "eval_bvmc_fc1_min_unc": "6945b9b7098c08c7",
-    "eval_bvmc_fc1_anchor": "cbf89424e54df36d",
+    "eval_bvmc_fc1_anchor": "55714eb8c7b67ad7",
     "detect_fc1": "6e7b0a3c610b79c0",
 }
 
@@ -50,3 +54,24 @@ def test_studies_begun_earlier_keep_their_stage_fingerprints(monkeypatch: pytest
     assert found == LITE_PICK_PLACE
     train = next(stage for stage in build_stages(cfg) if stage.name == "train_bvmc_fc1")
     assert "trained_task" not in train.settings and train.settings["render_style"] == "fast"
+
+
+def test_a_changed_anchor_default_redoes_the_anchor_rows_only(monkeypatch: pytest.MonkeyPatch) -> None:
+    """anchor's defaults are chosen on validation scenes and may change: the rows that ran with the old ones
+    must not count as done, and no other stage may be redone for it."""
+    monkeypatch.setattr(stages_module, "cpu_has_native_bf16", lambda: True)
+    cfg = parse_config(["--task=push", "--preset=lite", "--output_dir=/studies/push_lite"])
+
+    def fingerprints() -> dict[str, str]:
+        found: dict[str, str] = {}
+        for stage in build_stages(cfg):
+            found[stage.name] = fingerprint(stage, found)
+        return found
+
+    before = fingerprints()
+    monkeypatch.setattr(
+        stages_module, "RecoveryConfig", functools.partial(RecoveryConfig, anchor_look_steps=3)
+    )
+    after = fingerprints()
+    changed = sorted(name for name in before if before[name] != after[name])
+    assert changed == ["eval_bvmc_fc1_anchor", "eval_bvmc_fc2_anchor"]

@@ -43,12 +43,31 @@ def test_is_holding_reads_the_finger_gap() -> None:
 
 
 def test_belief_anchor_averages_the_goals_of_the_least_uncertain_steps() -> None:
-    anchor = BeliefAnchor()
+    anchor = BeliefAnchor(goal_steps=10)
     for step in range(30):  # steps 10..19 are the least uncertain
         anchor.update(0.1 if 10 <= step < 20 else 0.5, np.array([float(step), 0.0, 0.0]))
     np.testing.assert_allclose(anchor.goal, [14.5, 0.0, 0.0])
     with pytest.raises(ValueError, match="No belief recorded"):
         BeliefAnchor().goal  # noqa: B018
+
+
+def test_anchor_goal_steps_reach_back_past_a_drifted_goal_belief() -> None:
+    """A goal believed right at the start (x = 0, u 0.002) that drifts (x = 1) while the policy is most
+    certain (u 0.001, as push's calm pushes are), then trouble (u 0.5): the 10 least uncertain steps hold
+    only the drifted belief; 30 reach back to the start's."""
+    anchors = {10: BeliefAnchor(10), 30: BeliefAnchor(30)}
+    for step in range(40):
+        u, x = (0.002, 0.0) if step < 20 else (0.001, 1.0) if step < 30 else (0.5, 1.0)
+        for anchor in anchors.values():
+            anchor.update(u, np.array([x, 0.0, 0.0]))
+    np.testing.assert_allclose(anchors[10].goal, [1.0, 0.0, 0.0])
+    np.testing.assert_allclose(anchors[30].goal, [10 / 30, 0.0, 0.0])
+    config = RecoveryConfig(mode="anchor", anchor_goal_steps=10)
+    assert config.for_task(object_picked=False, object_held_at_end=False).anchor_goal_steps == 10
+    with pytest.raises(ValueError, match="anchor_goal_steps must be >= 1"):
+        RecoveryConfig(mode="anchor", anchor_goal_steps=0)
+    with pytest.raises(ValueError, match="no effect with --recovery.mode=min_unc"):
+        RecoveryConfig(mode="min_unc", anchor_goal_steps=10)
 
 
 def believing(
@@ -112,22 +131,26 @@ def test_anchor_without_grasp_pushes_the_believed_object_onto_the_anchored_goal(
     assert changes and all(change.memory is None for change in changes)
 
 
-@pytest.mark.parametrize("release", [True, False])
-def test_anchor_holding_carries_to_the_goal_believed_at_the_least_uncertain_step(release: bool) -> None:
-    # Believed goals: (1.2, 0.8) at the ten least uncertain steps (u = 0.05), (1.4, 0.6) at the others.
+@pytest.mark.parametrize(("release", "goal_steps"), [(True, 10), (False, 10), (True, 12)])
+def test_anchor_holding_carries_to_the_goal_believed_at_the_least_uncertain_steps(
+    release: bool, goal_steps: int
+) -> None:
+    # Believed goals: (1.2, 0.8) at the ten least uncertain steps (u = 0.05), (1.4, 0.6) at the others;
+    # the anchored goal averages the `goal_steps` least uncertain.
     stream = [0.05] * 10 + [0.2] * 3 + [1.0] + [0.0] * 100  # fires at step 13
     policy = scripted_policy(stream, move=[0.0, 0.0, 0.0], gripper=GRIPPER_CLOSE, **WITH_GOAL_HEAD)
     goals = [[1.20, 0.80, 0.425]] * 10 + [[1.40, 0.60, 0.425]] * 200
     start = np.array([1.342, 0.749, 0.535])  # about the grip point's start; the object believed 2 cm ahead
     believing(policy, [list(start + [0.02, 0.0, 0.0])] * 200, goals)
-    controller = anchor_controller(policy, anchor_release=release)
+    controller = anchor_controller(policy, anchor_release=release, anchor_goal_steps=goal_steps)
     controller.finger_joints = lambda batch: np.array([[0.024, 0.024]])  # the fingers rest on the cube
     changes = recorded_changes(controller)
     grips, actions = run_episode(controller, steps=60)
     event = controller.traces[-1].events[0][0]
     assert event["step"] == 13 and event["holding"] is True
     held_offset = start + [0.02, 0.0, 0.0] - grips[13]  # where the policy believes the cube sits in the hand
-    target = np.array([1.20, 0.80, 0.425 + PLACE_CLEARANCE]) - held_offset  # the object over the goal
+    goal = np.mean(goals[:goal_steps], axis=0)  # (1.2, 0.8), or drawn toward (1.4, 0.6) by 2 of 12 steps
+    target = goal + [0.0, 0.0, PLACE_CLEARANCE] - held_offset  # the object over the goal
     np.testing.assert_allclose(event["target"], target, atol=1e-4)
     phases = np.stack(controller.traces[-1].phase)[:, 0]
     carrying = np.flatnonzero(phases == CARRY_TO_GOAL)
