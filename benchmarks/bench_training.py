@@ -86,11 +86,14 @@ class Trainer:
         while True:
             yield from self.loader
 
+    def autocast(self) -> contextlib.AbstractContextManager:
+        """bf16 autocast for a bf16 mode (what `ACCELERATE_MIXED_PRECISION=bf16` gives), else nothing."""
+        return torch.autocast("cpu", dtype=torch.bfloat16) if self.mode.bf16 else contextlib.nullcontext()
+
     def step(self) -> int:
         """One optimiser step; returns the supervised steps (labels) it learned from."""
         batch = self.preprocessor(next(self.batches))
-        autocast = torch.autocast("cpu", dtype=torch.bfloat16) if self.mode.bf16 else contextlib.nullcontext()
-        with autocast:
+        with self.autocast():
             loss, info = self.policy.forward(batch)
         loss.backward()
         torch.nn.utils.clip_grad_norm_(self.policy.parameters(), self.mode.config.optimizer_grad_clip_norm)
