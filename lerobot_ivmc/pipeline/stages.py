@@ -18,7 +18,7 @@ from pathlib import Path
 from lerobot.configs.policies import PreTrainedConfig
 
 from lerobot_ivmc.constants import EVAL_INFO_FILE, LAST_PRETRAINED_MODEL, PRETRAINED_MODEL_DIR
-from lerobot_ivmc.envs import DEMO_EPISODE_STEPS
+from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, task_env_class
 from lerobot_ivmc.evaluation.perception_check import RECORD_FILE as PERCEPTION_RECORD
 from lerobot_ivmc.hardware import cpu_has_native_bf16
 from lerobot_ivmc.pipeline.config import POLICY_TYPES, PipelineConfig
@@ -332,6 +332,11 @@ def row_stages(
         ("vmc", root / "train" / f"vmc_{folder}" / CHECKPOINT, None, train_stage_name("vmc", fc, train_seed))
     ]
     rows += [("bvmc", bvmc, mode, threshold.name) for mode in cfg.recovery_modes]
+    # anchor reads a pushed object where the frame position head places it: a policy without that head
+    # reads it from the memory's object head instead.
+    pushed = not task_env_class(cfg.task).object_picked
+    without_frame_head = cfg.train.policy.frame_position_head is False
+    anchor_flags = ["--recovery.anchor_object=memory"] if pushed and without_frame_head else []
     stages = []
     for policy_type, checkpoint, mode, source in rows:
         name = eval_stage_name(policy_type, fc, mode, train_seed)
@@ -348,6 +353,7 @@ def row_stages(
                 seed,
                 mode,
                 source,
+                recovery_flags=anchor_flags if mode == "anchor" else [],
             )
         )
     fig3 = fig3_stage_name(cfg, fc, train_seed)
@@ -505,8 +511,10 @@ def eval_stage(
     mode: str | None,
     source: str,
     split: str = "test",
+    recovery_flags: list[str] | None = None,
 ) -> Stage:
-    """`lerobot-ivmc-eval` on `split` scenes (with `--recovery.mode` for the BVMC rows)."""
+    """`lerobot-ivmc-eval` on `split` scenes (with `--recovery.mode` and `recovery_flags` for the BVMC
+    rows)."""
     return Stage(
         name,
         [
@@ -518,6 +526,7 @@ def eval_stage(
             f"--eval.batch_size={batch_size}",
             seed,
             *([f"--recovery.mode={mode}"] if mode else []),
+            *(recovery_flags or []),
             f"--output_dir={out}",
         ],
         output=out,

@@ -11,12 +11,18 @@ from dataclasses import dataclass, replace
 RECOVERY_MODES = ("none", "rand", "init", "min_unc", "anchor")
 MIN_UNC_MEMORY = ("restore", "reset", "keep")
 MIN_UNC_CHOICE = ("foresight", "mean", "random")
+ANCHOR_OBJECT = ("memory", "frame")
 # anchor's goal is the mean of the goals believed at this many least uncertain steps by default. One step's
 # belief is noisy (pick_place's validation failures: 50% of single-step anchors within the target's 3 cm, 67%
 # of 10-step means); the 10 least uncertain steps can all fall after the goal belief drifted toward the
 # object (push: 89% within 3 cm against 100% for 30 steps), and 30 steps rescued as many or more on the
 # validation scenes of every policy tried (docs/RESULTS.md, "anchor's goal over 30 steps").
 ANCHOR_GOAL_STEPS = 30
+# Before anchor pushes an object, by default, the arm looks from the start pose this many steps with a fresh
+# memory and anchor reads the object where the frame position head places it: on push's validation failures
+# the object head on the memory was a median 9.3 cm off at the end of such a look, the frame head 4.2 cm,
+# and the look of 6 steps with the frame head rescued the most (docs/RESULTS.md, "push: the frame head").
+PUSHED_OBJECT_LOOK_STEPS = 6
 
 
 @dataclass
@@ -82,10 +88,17 @@ class RecoveryConfig:
             this many steps, so that the object is located as in every demo's first frames, not by the
             memory whose belief failed (push's failures: the cube believed in front of the fingers, or on
             the goal, while the camera shows it elsewhere). 0: act at once on the beliefs of the step the
-            trigger fired.
+            trigger fired. None: from the task, `PUSHED_OBJECT_LOOK_STEPS` for an object that is pushed, 0
+            for one that is picked up.
         anchor_goal_steps: anchor's goal is the mean of the goals the policy believed at this many least
             uncertain steps so far (one step's belief is noisy; more steps also reach back to before the
             goal belief drifted toward the object).
+        anchor_object: which of the policy's heads anchor reads the object's position from. "memory": the
+            object head on the LSTM's state, which carries what the policy believed before; "frame" (a
+            policy trained with the frame position head): that head's reading of the current frame's CNN
+            map alone, with no memory to carry a false belief (push's failures: the object believed in
+            front of the fingers after they slid past it). None: from the task, "frame" for an object that
+            is pushed, "memory" for one that is picked up (where the frame head placed it worse).
         max_videos: at most this many videos of episodes with a recovery, the uncertainty trace drawn under
             the frames (frames are rendered for every episode until they are found; 0 disables).
     """
@@ -108,8 +121,9 @@ class RecoveryConfig:
     anchor_release: bool | None = None
     anchor_grasp: bool | None = None
     anchor_rest_height: float | None = None
-    anchor_look_steps: int = 0
+    anchor_look_steps: int | None = None
     anchor_goal_steps: int = ANCHOR_GOAL_STEPS
+    anchor_object: str | None = None
     max_videos: int = 4
 
     def for_task(
@@ -125,6 +139,14 @@ class RecoveryConfig:
             anchor_grasp=object_picked if self.anchor_grasp is None else self.anchor_grasp,
             anchor_rest_height=(
                 object_rest_height if self.anchor_rest_height is None else self.anchor_rest_height
+            ),
+            anchor_look_steps=(
+                (0 if object_picked else PUSHED_OBJECT_LOOK_STEPS)
+                if self.anchor_look_steps is None
+                else self.anchor_look_steps
+            ),
+            anchor_object=(
+                ("memory" if object_picked else "frame") if self.anchor_object is None else self.anchor_object
             ),
         )
 
@@ -170,16 +192,21 @@ class RecoveryConfig:
             self.anchor_rest_height,
             self.anchor_look_steps,
             self.anchor_goal_steps,
+            self.anchor_object,
         )
-        if anchor_settings != (40, None, None, None, 0, ANCHOR_GOAL_STEPS) and self.mode != "anchor":
+        if anchor_settings != (40, None, None, None, None, ANCHOR_GOAL_STEPS, None) and self.mode != "anchor":
             raise ValueError(
                 "--recovery.anchor_steps, anchor_release, anchor_grasp, anchor_rest_height, "
-                "anchor_look_steps and anchor_goal_steps set the anchor mode; they have no effect with "
-                f"--recovery.mode={self.mode}: drop them or use --recovery.mode=anchor."
+                "anchor_look_steps, anchor_goal_steps and anchor_object set the anchor mode; they have no "
+                f"effect with --recovery.mode={self.mode}: drop them or use --recovery.mode=anchor."
+            )
+        if self.anchor_object is not None and self.anchor_object not in ANCHOR_OBJECT:
+            raise ValueError(
+                f"--recovery.anchor_object must be one of {ANCHOR_OBJECT}, got {self.anchor_object!r}."
             )
         if self.anchor_goal_steps < 1:
             raise ValueError(f"--recovery.anchor_goal_steps must be >= 1, got {self.anchor_goal_steps}.")
-        if self.anchor_look_steps < 0:
+        if self.anchor_look_steps is not None and self.anchor_look_steps < 0:
             raise ValueError(f"--recovery.anchor_look_steps must be >= 0, got {self.anchor_look_steps}.")
         if self.anchor_rest_height is not None and math.isinf(self.anchor_rest_height):
             raise ValueError(

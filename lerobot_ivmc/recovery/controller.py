@@ -44,6 +44,9 @@ from lerobot_ivmc.recovery.manoeuvres import (
 from lerobot_ivmc.recovery.rollout_wrapper import BVMCRolloutWrapper
 from lerobot_ivmc.recovery.trigger import RecoveryTrigger
 
+# The object's part of the frame position head's outputs (EE 0:3, object 3:6, the goal 6:9).
+OBJECT_POSITION = slice(3, 6)
+
 
 @dataclass
 class BatchTrace:
@@ -136,6 +139,12 @@ class IntrospectiveController(BVMCRolloutWrapper):
                 "--recovery.mode=anchor reads the goal the policy believes: it needs a policy trained with "
                 "--policy.goal_head=true (the lite preset's); use another --recovery.mode for this one."
             )
+        if recovery.anchor_object == "frame" and not getattr(policy.config, "frame_position_head", False):
+            raise ValueError(
+                "--recovery.anchor_object=frame reads the policy's frame position head: it needs a policy "
+                "trained with --policy.frame_position_head=true (the lite preset's); drop the flag for "
+                "this one."
+            )
         if recovery.mode == "anchor" and state_stats is None:
             raise ValueError(
                 "--recovery.mode=anchor needs the statistics of observation.state (state_stats)."
@@ -216,7 +225,10 @@ class IntrospectiveController(BVMCRolloutWrapper):
         goals of rollouts in normal operation to their anchors."""
         outputs = self.policy.net.decode(prediction.embedding, stochastic=False, with_goal=True)
         mean, std = self.env_state_mean[3:], self.env_state_std[3:]  # the object's part of the env state
-        self.object_beliefs = (outputs[3].float().cpu() * std + mean).numpy().astype(np.float64)
+        believed = outputs[3]
+        if self.recovery.anchor_object == "frame":  # this frame's reading, without the memory
+            believed = self.policy.frame_positions[:, OBJECT_POSITION]
+        self.object_beliefs = (believed.float().cpu() * std + mean).numpy().astype(np.float64)
         goals = (outputs[4].float().cpu() * std + mean).numpy().astype(np.float64)
         for row in np.flatnonzero(normal):
             self.anchors[row].update(float(uncertainty[row]), goals[row])

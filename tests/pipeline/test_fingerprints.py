@@ -17,7 +17,8 @@ from lerobot_ivmc.recovery.config import RecoveryConfig
 # --output_dir=/studies/pick_place_lite` on a CPU with native bf16, as the code of 72da9bb (the running
 # lite studies') computed them. Change one only with a change of what its stage computes, knowing that every
 # study begun before redoes that stage and all after it. The anchor row's holds anchor's settings since its
-# goal became the mean over 30 least uncertain steps (10 before: cbf89424e54df36d).
+# goal became the mean over 30 least uncertain steps (10 before: cbf89424e54df36d; 55714eb8c7b67ad7 until
+# the look and the object's head became task-dependent).
 LITE_PICK_PLACE = {
     "collect": "a530cb8fe6fe2304",
     "train_vmc_fc1": "efc6c777afa13adb",
@@ -31,7 +32,7 @@ LITE_PICK_PLACE = {
     "eval_bvmc_fc1_rand": "0deae0bfbeed1352",
     "eval_bvmc_fc1_init": "cae409a12d99787b",
     "eval_bvmc_fc1_min_unc": "6945b9b7098c08c7",
-    "eval_bvmc_fc1_anchor": "55714eb8c7b67ad7",
+    "eval_bvmc_fc1_anchor": "37b916f0044e917a",
     "detect_fc1": "6e7b0a3c610b79c0",
 }
 
@@ -75,3 +76,25 @@ def test_a_changed_anchor_default_redoes_the_anchor_rows_only(monkeypatch: pytes
     after = fingerprints()
     changed = sorted(name for name in before if before[name] != after[name])
     assert changed == ["eval_bvmc_fc1_anchor", "eval_bvmc_fc2_anchor"]
+
+
+@pytest.mark.parametrize(
+    ("task", "frame_head", "flag"),
+    [("push", "false", True), ("push", "true", False), ("pick_place", "false", False)],
+)
+def test_an_anchor_row_of_a_pushed_object_reads_the_memory_head_without_the_frame_head(
+    task: str, frame_head: str, flag: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """anchor reads a pushed object from the frame position head by default: a study whose policies lack
+    it runs its anchor rows on the memory's object head (and only those rows say so)."""
+    monkeypatch.setattr(stages_module, "cpu_has_native_bf16", lambda: True)
+    cfg = parse_config(
+        [
+            f"--task={task}",
+            "--preset=lite",
+            "--output_dir=/s",
+            f"--train.policy.frame_position_head={frame_head}",
+        ]
+    )
+    with_flag = [st.name for st in build_stages(cfg) if "--recovery.anchor_object=memory" in st.argv]
+    assert with_flag == (["eval_bvmc_fc1_anchor", "eval_bvmc_fc2_anchor"] if flag else [])

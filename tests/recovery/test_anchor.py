@@ -12,6 +12,7 @@ import torch
 from lerobot.utils.constants import OBS_ENV_STATE
 from policy_helpers import make_config
 from test_controller import IDENTITY_STATS, recorded_changes, run_episode, scripted_policy, to_batch
+from torch import Tensor
 
 from lerobot_ivmc.envs import make_task_env, task_env_class
 from lerobot_ivmc.envs.fetch_env import GRIPPER_CLOSE, GRIPPER_OPEN
@@ -27,7 +28,7 @@ from lerobot_ivmc.recovery.anchor import (
     push_to_goal,
     regrasp,
 )
-from lerobot_ivmc.recovery.config import RECOVERY_MODES, RecoveryConfig
+from lerobot_ivmc.recovery.config import PUSHED_OBJECT_LOOK_STEPS, RECOVERY_MODES, RecoveryConfig
 from lerobot_ivmc.recovery.controller import IntrospectiveController
 from lerobot_ivmc.recovery.manoeuvres import CARRY_TO_GOAL, LOOK, NORMAL, PUSH_TO_GOAL, REGRASP
 
@@ -292,12 +293,12 @@ def test_anchor_refuses_a_policy_without_the_goal_head() -> None:
         anchor_controller(policy)
 
 
-@pytest.mark.parametrize("mode", [m for m in RECOVERY_MODES if m != "none"] + ["anchor_look"])
+@pytest.mark.parametrize("mode", [m for m in RECOVERY_MODES if m != "none"] + ["anchor_look", "anchor_frame"])
 def test_recovery_reads_nothing_of_the_simulator_state(mode: str) -> None:
     """Each mode acts the same when the object's true position is withheld from the observation (NaN):
     it reads only the camera, the proprioception, the grip point's position and the policy's heads."""
     torch.manual_seed(0)
-    policy = BVMCPolicy(make_config(BVMCConfig, num_samples=8, **WITH_GOAL_HEAD))
+    policy = BVMCPolicy(make_config(BVMCConfig, num_samples=8, frame_position_head=True, **WITH_GOAL_HEAD))
     policy.attach_foresight()
     policy.eval()
 
@@ -306,7 +307,10 @@ def test_recovery_reads_nothing_of_the_simulator_state(mode: str) -> None:
         short = {"anchor_steps": 5} if mode.startswith("anchor") else {"recovery_steps": 5}
         if mode == "anchor_look":
             short["anchor_look_steps"] = 2
-        cfg = RecoveryConfig(mode=mode.removesuffix("_look"), window=1, initial_interval=0, **short)
+        if mode == "anchor_frame":  # the frame position head's reading of the object, after a look
+            short.update(anchor_look_steps=2, anchor_object="frame")
+        base_mode = mode.removesuffix("_look").removesuffix("_frame")
+        cfg = RecoveryConfig(mode=base_mode, window=1, initial_interval=0, **short)
         controller = IntrospectiveController(
             policy, cfg, threshold=0.0, window=1, env_state_stats=IDENTITY_STATS, state_stats=STATE_IDENTITY
         )
@@ -330,17 +334,63 @@ def test_recovery_reads_nothing_of_the_simulator_state(mode: str) -> None:
 
 
 def test_anchor_takes_its_object_handling_from_the_task_unless_given() -> None:
-    """push's cube is never picked up (no re-grasp); pick_reach's stick is held at the end (no release)."""
-    for task, grasp, release in [
-        ("push", False, True),
-        ("pick_place", True, True),
-        ("pick_reach", True, False),
+    """push's cube is never picked up (no re-grasp; a look from the start pose and the frame head's
+    reading of where it is); pick_reach's stick is held at the end (no release)."""
+    for task, grasp, release, look, source in [
+        ("push", False, True, PUSHED_OBJECT_LOOK_STEPS, "frame"),
+        ("pick_place", True, True, 0, "memory"),
+        ("pick_reach", True, False, 0, "memory"),
     ]:
         env_class = task_env_class(task)
         settings = RecoveryConfig(mode="anchor").for_task(
             env_class.object_picked, env_class.object_held_at_end
         )
         assert (settings.anchor_grasp, settings.anchor_release) == (grasp, release), task
-    given = RecoveryConfig(mode="anchor", anchor_grasp=True, anchor_release=False).for_task(False, False)
+        assert (settings.anchor_look_steps, settings.anchor_object) == (look, source), task
+    given = RecoveryConfig(
+        mode="anchor", anchor_grasp=True, anchor_release=False, anchor_look_steps=0, anchor_object="memory"
+    ).for_task(False, False)
     assert (given.anchor_grasp, given.anchor_release) == (True, False)
+    assert (given.anchor_look_steps, given.anchor_object) == (0, "memory")
+    with pytest.raises(ValueError, match="anchor_object must be one of"):
+        RecoveryConfig(mode="anchor", anchor_object="camera")
+    with pytest.raises(ValueError, match="no effect with --recovery.mode=init"):
+        RecoveryConfig(mode="init", anchor_object="frame")
     assert RecoveryConfig(mode="min_unc").for_task(False, True) == RecoveryConfig(mode="min_unc")
+
+
+@pytest.mark.parametrize("source", ["memory", "frame"])
+def test_anchor_reads_the_object_from_the_head_it_is_told(source: str) -> None:
+    """The object head on the memory believes the cube in one place, the frame position head in another:
+    anchor's push starts behind the one `anchor_object` names."""
+    memory_object, frame_object = np.array([1.30, 0.70, 0.425]), np.array([1.20, 0.62, 0.425])
+    stream = [0.05] * 10 + [1.0] + [0.0] * 100  # fires at step 10
+    policy = scripted_policy(stream, move=[0.0, 0.0, 0.0], frame_position_head=True, **WITH_GOAL_HEAD)
+    believing(policy, [list(memory_object)] * 200, [[1.45, 1.00, 0.425]] * 200)
+    encode = policy.net.encode_with_positions
+
+    def frame_reading(images: Tensor, state: Tensor) -> tuple[Tensor, Tensor]:
+        s, positions = encode(images, state)
+        positions = positions.clone()
+        positions[:, 3:6] = torch.as_tensor(frame_object, dtype=positions.dtype)  # identity statistics
+        return s, positions
+
+    policy.net.encode_with_positions = frame_reading
+    controller = anchor_controller(policy, anchor_grasp=False, anchor_object=source)
+    run_episode(controller, steps=12)
+    believed = memory_object if source == "memory" else frame_object
+    np.testing.assert_allclose(controller.object_beliefs[0], believed, atol=1e-6)
+    event = controller.traces[-1].events[0][0]
+    assert event["step"] == 10
+    # The first leg pushes along the farther axis (y here), in the column of the object the named head
+    # places: its waypoints after the rise keep that x.
+    other = frame_object if source == "memory" else memory_object
+    xs = [waypoint.position[0] for waypoint in controller.manoeuvres[0].waypoints]
+    assert any(x == pytest.approx(believed[0]) for x in xs)
+    assert not any(x == pytest.approx(other[0]) for x in xs)
+
+
+def test_anchor_on_the_frame_head_refuses_a_policy_without_it() -> None:
+    policy = scripted_policy([0.0], move=[0.0, 0.0, 0.0], frame_position_head=False, **WITH_GOAL_HEAD)
+    with pytest.raises(ValueError, match="anchor_object=frame reads the policy's frame position head"):
+        anchor_controller(policy, anchor_object="frame")

@@ -64,6 +64,10 @@ class VMCPolicy(PreTrainedPolicy):
         state_dim = config.input_features[OBS_STATE].shape[0]
         self.net = VisuomotorNet(config, image_shape, state_dim, self._make_head(config, dataset_meta))
         self._memory: Memory | None = None
+        # (B, 6) or, with the goal head, (B, 9): the frame position head's EE and object positions (and
+        # the object's at the demo's end) read from the last rollout frame's CNN map alone, normalised like
+        # `observation.environment_state`; None for a net without that head or before the first step.
+        self.frame_positions: Tensor | None = None
         # Sequence training, `chunk_memory="stored"`: the state each demo frame was last left in. Chunks of
         # whole demos all start at an episode's start, where the memory is zero: nothing to store then.
         lengths = episode_lengths(dataset_meta)
@@ -92,6 +96,7 @@ class VMCPolicy(PreTrainedPolicy):
     def reset(self) -> None:
         """Clear the LSTM memory (call at every episode start)."""
         self._memory = None
+        self.frame_positions = None
 
     def get_memory(self) -> Memory | None:
         """A copy of the rollout memory, or None before the first step.
@@ -232,12 +237,13 @@ class VMCPolicy(PreTrainedPolicy):
         return images, state
 
     def step_embedding(self, batch: dict[str, Tensor]) -> Tensor:
-        """Feed one frame to the CNN and LSTM, update the memory and return e_t, (B, lstm_dim)."""
+        """Feed one frame to the CNN and LSTM, update the memory and return e_t, (B, lstm_dim). A net with the
+        frame position head also leaves that head's reading of the frame in `frame_positions`."""
         images, state = self._current_obs(batch)
         memory = self._memory
         if memory is not None and memory[0].shape[0] != images.shape[0]:
             raise ValueError(f"Memory holds {memory[0].shape[0]} rollouts but the batch {images.shape[0]}.")
-        s = self.net.encode(images, state)
+        s, self.frame_positions = self.net.encode_with_positions(images, state)
         if self.config.rollout_memory == "window":
             frames, is_pad = self.initial_memory(s.shape[0]) if memory is None else memory
             frames = torch.cat([frames[:, 1:], s[:, None]], dim=1)
