@@ -25,7 +25,8 @@ from lerobot.configs import parser
 from lerobot.utils.constants import OBS_STATE
 
 from lerobot_ivmc.envs import make_task_env, task_env_class
-from lerobot_ivmc.evaluation.eval_subtasks import env_state_stats, feature_stats
+from lerobot_ivmc.evaluation.beliefs import BeliefReader
+from lerobot_ivmc.evaluation.eval_subtasks import feature_stats
 from lerobot_ivmc.evaluation.inspect_episode import InspectConfig
 from lerobot_ivmc.evaluation.loading import LoadedPolicy, load_policy
 from lerobot_ivmc.recovery.config import RecoveryConfig
@@ -65,18 +66,6 @@ def load(policy_path: str, task: str) -> LoadedPolicy:
     return load_policy(captured["cfg"])
 
 
-class HeadReader:
-    """Both heads' object positions (metres) of the step the policy last took, for the first rollout."""
-
-    def __init__(self, loaded: LoadedPolicy):
-        self.policy = loaded.policy
-        self.mean, self.std = env_state_stats(loaded.preprocessor)
-
-    def frame_head(self) -> np.ndarray:
-        positions = self.policy.frame_positions[0, OBJECT_POSITION].float()
-        return (positions * self.std[OBJECT_POSITION] + self.mean[OBJECT_POSITION]).numpy()
-
-
 def errors_cm(believed: np.ndarray, truth: np.ndarray) -> float:
     return float(100 * np.linalg.norm(np.asarray(believed)[:2] - np.asarray(truth)[:2]))
 
@@ -86,7 +75,7 @@ def run_scene(
 ) -> dict | None:
     """One scene without recovery (look_steps None) or with anchor's look; the heads' errors (cm) at the
     trigger or at the look's last step, None if the episode never gets there."""
-    reader = HeadReader(loaded)
+    reader = BeliefReader(loaded)  # its statistics map the frame head's reading to metres
     env_class = task_env_class(task)
     # anchor's controller keeps the memory head's belief each step; without recovery it never fires.
     recovery = RecoveryConfig(mode="anchor", anchor_look_steps=look_steps or 0, anchor_object="memory")
@@ -117,7 +106,8 @@ def run_scene(
         if found is None and look_steps is not None and previous == LOOK and phase != LOOK:
             found = step
         if found == step:
-            memory_head, frame_head = controller.object_beliefs[0], reader.frame_head()
+            frame_head = reader.to_world(loaded.policy.frame_positions[:, OBJECT_POSITION], OBJECT_POSITION)
+            memory_head = controller.object_beliefs[0]
             errors = {"memory_cm": errors_cm(memory_head, truth), "frame_cm": errors_cm(frame_head, truth)}
         previous = phase
         observation, _, terminated, _, info = env.step(action.numpy())

@@ -142,8 +142,8 @@ class IntrospectiveController(BVMCRolloutWrapper):
         if recovery.anchor_object == "frame" and not getattr(policy.config, "frame_position_head", False):
             raise ValueError(
                 "--recovery.anchor_object=frame reads the policy's frame position head: it needs a policy "
-                "trained with --policy.frame_position_head=true (the lite preset's); drop the flag for "
-                "this one."
+                "trained with --policy.frame_position_head=true (the lite preset's); pass "
+                "--recovery.anchor_object=memory for this one."
             )
         if recovery.mode == "anchor" and state_stats is None:
             raise ValueError(
