@@ -7,17 +7,17 @@ from __future__ import annotations
 import json
 import math
 import shutil
-import statistics
 from dataclasses import asdict
 from pathlib import Path
 
 from lerobot_ivmc.atomic_files import write_json_atomic
-from lerobot_ivmc.evaluation.compare import EVAL_INFO_FILE, exact_mcnemar_p, paired_outcomes, rescue_record
+from lerobot_ivmc.evaluation.compare import EVAL_INFO_FILE, paired_outcomes, rescue_record
 from lerobot_ivmc.evaluation.perception_check import DRIVERS as PERCEPTION_DRIVERS
 from lerobot_ivmc.evaluation.success_by_uncertainty import most_negative_rho
 from lerobot_ivmc.pipeline.config import POLICY_TYPES, PipelineConfig
 from lerobot_ivmc.pipeline.paper_table import PAPER_TABLE
 from lerobot_ivmc.pipeline.runner import StageResult
+from lerobot_ivmc.pipeline.seed_pool import spread_over_seeds, study_setup
 from lerobot_ivmc.pipeline.stage_names import (
     detect_stage_name,
     eval_stage_name,
@@ -96,21 +96,17 @@ def chain_ended(cfg: PipelineConfig, fc: int, train_seed: int, ended: set[str]) 
 
 def training_seed_rows(
     cfg: PipelineConfig, stages: list[Stage], fcs: list[int], ended: set[str]
-) -> tuple[list[dict], list[dict], list[dict], list[dict]]:
+) -> tuple[list[dict], list[dict]]:
     """Every training seed's rows whose chain has ended, for the #fc values `fcs`.
 
     Returns:
-        rows: VMC and BVMC without recovery per seed; summary: per (#fc, model) each subtask's mean and
-        sample standard deviation over the seeds; recovery_rows: each recovery mode per seed, with its
-        `rescue` against that seed's own BVMC; pooled_rescue: per (#fc, mode) the rescue counts summed over
-        the seeds, the pooled rescue rate, and the exact test of rescued against lost over every seed's
-        paired scenes (a matched pair per scene and seed: the Mantel-Haenszel test for matched pairs).
+        rows: VMC and BVMC without recovery per seed; recovery_rows: each recovery mode per seed, with its
+        `rescue` against that seed's own BVMC (`seed_pool.spread_over_seeds` pools them).
     """
-    rows, summary, recovery_rows, pooled = [], [], [], []
+    rows, recovery_rows = [], []
     for fc in fcs:
         seeds = [s for s in cfg.train.seeds if chain_ended(cfg, fc, s, ended)]
         for method in ["vmc", *cfg.recovery_modes]:
-            per_seed = []
             for train_seed in seeds:
                 extra = None if train_seed == cfg.train.seed else train_seed
                 info = load_eval_info(stage_output(stages, eval_row_stage(fc, method, extra)))
@@ -121,47 +117,13 @@ def training_seed_rows(
                     "train_seed": train_seed,
                     "subtasks": subtask_rates(info),
                 }
-                if method not in ("vmc", "none"):
-                    bvmc = load_eval_info(stage_output(stages, eval_row_stage(fc, "none", extra)))
-                    success = list(row["subtasks"])[-1]
-                    row = {**row, "method": method, "rescue": rescue_record(bvmc, info, success)}
-                per_seed.append(row)
-            if method in ("vmc", "none"):
-                rows += per_seed
-            else:
-                recovery_rows += per_seed
-                pooled.append(pooled_rescue(fc, method, per_seed))
-            if len(per_seed) < 2:
-                continue
-            spread = {}
-            for sub in per_seed[0]["subtasks"]:
-                rates = [r["subtasks"][sub]["rate"] for r in per_seed]
-                spread[sub] = {"mean": statistics.mean(rates), "std": statistics.stdev(rates), "rates": rates}
-            summary.append(
-                {
-                    "model": METHOD_LABELS[method] if method != "vmc" else "VMC",
-                    "method": method,
-                    "num_fc_layers": fc,
-                    "train_seeds": [r["train_seed"] for r in per_seed],
-                    "subtasks": spread,
-                }
-            )
-    return rows, summary, recovery_rows, [p for p in pooled if p is not None]
-
-
-def pooled_rescue(fc: int, method: str, per_seed: list[dict]) -> dict | None:
-    """A recovery mode's rescue counts summed over the seeds' rows, with the pooled exact test."""
-    if not per_seed:
-        return None
-    total = {k: sum(r["rescue"][k] for r in per_seed) for k in ("failures", "flagged", "rescued", "lost")}
-    return {
-        "num_fc_layers": fc,
-        "method": method,
-        "train_seeds": [r["train_seed"] for r in per_seed],
-        **total,
-        "rescue_rate": (total["rescued"] - total["lost"]) / total["failures"] if total["failures"] else None,
-        "exact_p": exact_mcnemar_p(total["lost"], total["rescued"]),
-    }
+                if method in ("vmc", "none"):
+                    rows.append(row)
+                    continue
+                bvmc = load_eval_info(stage_output(stages, eval_row_stage(fc, "none", extra)))
+                success = list(row["subtasks"])[-1]
+                recovery_rows.append({**row, "method": method, "rescue": rescue_record(bvmc, info, success)})
+    return rows, recovery_rows
 
 
 def perception_rows(cfg: PipelineConfig, stages: list[Stage], ended: set[str]) -> list[dict]:
@@ -263,9 +225,10 @@ def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageR
             "threshold": threshold_record(stages, fc),
         }
     ended = {t.name for t in timings}
-    seed_rows, seed_summary, seed_recovery_rows, seed_pooled = (
-        training_seed_rows(cfg, stages, fcs, ended) if cfg.train.extra_seeds else ([], [], [], [])
+    seed_rows, seed_recovery_rows = (
+        training_seed_rows(cfg, stages, fcs, ended) if cfg.train.extra_seeds else ([], [])
     )
+    seed_summary, seed_pooled = spread_over_seeds(seed_rows, seed_recovery_rows)
     seeds_done = all(
         chain_ended(cfg, fc, train_seed, ended)
         for fc in cfg.train.num_fc_layers
@@ -276,6 +239,7 @@ def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageR
         "task": cfg.task,
         "preset": cfg.preset,
         "complete": fcs == cfg.train.num_fc_layers and seeds_done,
+        "setup": study_setup(cfg),
         "rows": rows,
         "per_fc": per_fc,
         "perception": perception,

@@ -326,6 +326,13 @@ def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Pa
     assert seeded.stdout.count(": running") == 13, seeded.stdout  # its whole chain
     with_seed = json.loads((out / "results" / "push.json").read_text())
     assert with_seed["complete"] is True and with_seed["rows"] == results["rows"]
+    # What another study's seeds must share to be pooled with these (`lerobot-ivmc-pool-seeds`).
+    assert with_seed["setup"]["test_scenes"] == {
+        "split": "test",
+        "seed": 0,
+        "n_episodes": 4,
+        "episode_length": 30,
+    }
     spread = with_seed["training_seeds"]
     assert [(r["model"], r["train_seed"]) for r in spread["rows"]] == [
         ("VMC", 1000),
