@@ -17,7 +17,7 @@ from lerobot_ivmc.evaluation.success_by_uncertainty import most_negative_rho
 from lerobot_ivmc.pipeline.config import POLICY_TYPES, PipelineConfig
 from lerobot_ivmc.pipeline.paper_table import PAPER_TABLE
 from lerobot_ivmc.pipeline.runner import StageResult
-from lerobot_ivmc.pipeline.seed_pool import spread_over_seeds, study_setup
+from lerobot_ivmc.pipeline.seed_pool import WITHOUT_RECOVERY, spread_over_seeds, study_setup
 from lerobot_ivmc.pipeline.stage_names import (
     detect_stage_name,
     eval_stage_name,
@@ -117,7 +117,7 @@ def training_seed_rows(
                     "train_seed": train_seed,
                     "subtasks": subtask_rates(info),
                 }
-                if method in ("vmc", "none"):
+                if method in WITHOUT_RECOVERY:
                     rows.append(row)
                     continue
                 bvmc = load_eval_info(stage_output(stages, eval_row_stage(fc, "none", extra)))

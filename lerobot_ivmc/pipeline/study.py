@@ -14,7 +14,7 @@ import draccus
 
 from lerobot_ivmc.pipeline.config import PRESETS_DIR, PipelineConfig
 from lerobot_ivmc.pipeline.critical_path import critical_path, overlaps
-from lerobot_ivmc.pipeline.results import RESULTS_DIR, adds_results, finished_fcs, write_results
+from lerobot_ivmc.pipeline.results import RESULTS_DIR, adds_results, write_results
 from lerobot_ivmc.pipeline.runner import (
     Executor,
     LocalExecutor,
@@ -138,8 +138,6 @@ def run_pipeline(cfg: PipelineConfig, log=print) -> dict:
                     log(f"Results so far in {out}")
 
             timings = run_stages(root, stages, log, on_stage_end=write_when_results_grow, executor=executor)
-            if finished_fcs(cfg, timings):  # a rerun of a finished study rewrites its results with this code
-                write_results(cfg, stages, timings)
         finally:
             if hasattr(executor, "close"):
                 executor.close()
