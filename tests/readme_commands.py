@@ -19,7 +19,7 @@ current folder, as from the root of a fresh clone:
   are checked for syntax only.
 
 A command this file has no plan for fails the check: nothing is skipped silently. The commands read from
-the clone only `docs/results/` (the summary), which is copied into the folder first.
+the clone only `docs/results/` (the summary, the pooled seeds), which is copied into the folder first.
 """
 
 from __future__ import annotations
@@ -208,6 +208,9 @@ def expected_outputs(argv: list[str]) -> list[str]:
     if program == "lerobot-ivmc-summary":
         folder = out or flag_value(argv, "--results_dir")
         return [f"{folder}/reproduction.md", f"{folder}/reproduction.json"]
+    if program == "lerobot-ivmc-pool-seeds":
+        pooled = str(flag_value(argv, "--output"))
+        return [pooled, str(Path(pooled).with_suffix(".md"))]
     return []
 
 
