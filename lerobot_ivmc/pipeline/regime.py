@@ -18,26 +18,24 @@ no test scene is touched). The rule (`choose_budget`):
   range was not reached.
 
 Then the chosen budget's study runs to the end (its probe's stages are reused, not redone), with every
-training seed, and `<output_dir>/regime.json` (also copied into its results) records each probe's
-failures and the choice.
+training seed, and `<output_dir>/regime.json` records each probe's failures and the choice (also in the
+chosen study's `results/`, and under `regime` in its results JSON).
 """
 
 from __future__ import annotations
 
 import json
-import shutil
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, replace
 
 from lerobot_ivmc.atomic_files import write_json_atomic
 from lerobot_ivmc.constants import EVAL_INFO_FILE, LAST_PRETRAINED_MODEL
 from lerobot_ivmc.pipeline.config import PipelineConfig
-from lerobot_ivmc.pipeline.results import RESULTS_DIR
+from lerobot_ivmc.pipeline.results import REGIME_FILE, RESULTS_DIR
 from lerobot_ivmc.pipeline.runner import claim_root, run_stages, study_lock
 from lerobot_ivmc.pipeline.stage_names import COLLECT_STAGE, train_stage_name
 from lerobot_ivmc.pipeline.stages import Stage, build_stages, chain_flags, eval_stage, find_stage
 
-REGIME_FILE = "regime.json"
 PROBE_STAGE = "regime_val"
 
 
@@ -150,8 +148,9 @@ def run_regime(cfg: PipelineConfig, run_study: Callable[[PipelineConfig], dict],
             "study": str(chosen_study.root),
         }
         write_json_atomic(root / REGIME_FILE, record)
+        # (before the study: its results JSON, written after each stage, carries the record)
+        write_json_atomic(chosen_study.root / RESULTS_DIR / REGIME_FILE, record)
         rates = ", ".join(f"{p.demos}: {p.failure_rate:.0%}" for p in probes)
         log(f"Regime: {chosen} demos chosen (validation failure rate by demos: {rates})")
         results = run_study(chosen_study)
-    shutil.copyfile(root / REGIME_FILE, chosen_study.root / RESULTS_DIR / REGIME_FILE)
     return {**results, "regime": record}

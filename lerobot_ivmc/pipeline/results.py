@@ -37,6 +37,8 @@ from lerobot_ivmc.pipeline.tables import (
 from lerobot_ivmc.recovery.threshold import ThresholdRecord
 
 RESULTS_DIR = "results"
+# The data-budget rule's record (`pipeline/regime.py`), in the chosen study's results folder.
+REGIME_FILE = "regime.json"
 MAX_VIDEOS = 3
 
 
@@ -255,6 +257,7 @@ def write_results(cfg: PipelineConfig, stages: list[Stage], timings: list[StageR
             if cfg.train.extra_seeds
             else {}
         ),
+        **({"regime": json.loads(regime.read_text())} if (regime := out / REGIME_FILE).is_file() else {}),
         "stage_wall_s": {t.name: round(t.wall_s, 1) for t in timings},
         "total_wall_s": round(sum(t.wall_s for t in timings), 1),
     }

@@ -90,7 +90,8 @@ def test_probes_run_each_budget_s_study_start_then_the_chosen_study(tmp_path: Pa
 
     def run_study(cfg):  # the chosen study itself: the smoke study, tested end to end elsewhere
         studies.append(cfg)
-        (cfg.root / "results").mkdir(parents=True, exist_ok=True)
+        # the record is in place before the study's results JSON is first written
+        assert (cfg.root / "results" / REGIME_FILE).is_file()
         return {"task": cfg.task}
 
     results = run_regime(parse_config(args), run_study, log=lambda line: None)

@@ -9,8 +9,10 @@ from pathlib import Path
 
 import pytest
 
-from lerobot_ivmc.pipeline.seed_pool import PoolSeedsConfig, pool_studies
+from lerobot_ivmc.pipeline.regime import budget_config
+from lerobot_ivmc.pipeline.seed_pool import PoolSeedsConfig, pool_studies, study_setup
 from lerobot_ivmc.pipeline.stages import console_script
+from lerobot_ivmc.pipeline.study import parse_config
 
 SETUP = {"test_scenes": {"split": "test", "seed": 0, "n_episodes": 100}, "training": {"steps": 16000}}
 
@@ -153,3 +155,18 @@ def test_config_refuses_one_study_and_a_missing_file(tmp_path: Path) -> None:
         PoolSeedsConfig(
             results=[tmp_path / "a.json", tmp_path / "b.json"], output=tmp_path / "o.json"
         ).validate()
+
+
+def test_a_regime_study_pools_with_plain_studies_of_its_chosen_demos() -> None:
+    """More seeds of a data-budget study elsewhere: a plain study of the demos the rule chose, with another
+    training seed, records the same setup, so the two pool; one of another demo count does not."""
+    lite = ["--task=pick_reach", "--preset=lite", "--train.num_fc_layers=[1]"]
+    regime = parse_config([*lite, "--regime.demo_budgets=[1000,500,250]", "--train.seed=1000"])
+    chosen = study_setup(budget_config(regime, 500))
+
+    def plain(demos: int) -> dict:
+        return study_setup(
+            parse_config([*lite, f"--collect.dataset.num_episodes={demos}", "--train.seed=2000"])
+        )
+
+    assert chosen == plain(500) and chosen != plain(250)
