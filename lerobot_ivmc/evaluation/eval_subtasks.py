@@ -155,7 +155,12 @@ def run_evaluation(cfg: IvmcEvalConfig, output_dir: Path, ignore_stored_threshol
         task = task_env_class(cfg.env.task)
         controller = IntrospectiveController(
             policy,
-            cfg.recovery.for_task(task.object_picked, task.object_held_at_end, task.object_shape.rest_height),
+            cfg.recovery.for_task(
+                task.object_picked,
+                task.object_held_at_end,
+                task.object_shape.rest_height,
+                max(task.object_shape.half_size),
+            ),
             threshold,
             window,
             env_state_stats(loaded.preprocessor),

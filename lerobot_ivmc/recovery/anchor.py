@@ -34,7 +34,7 @@ import numpy as np
 
 from lerobot_ivmc.envs.fetch_env import GRIPPER_CLOSE, GRIPPER_OPEN
 from lerobot_ivmc.experts.push import APPROACH_GAP, CONTACT_X, CONTACT_Y, HOVER, PUSH_SPEED
-from lerobot_ivmc.recovery.config import ANCHOR_GOAL_STEPS
+from lerobot_ivmc.recovery.config import ANCHOR_GOAL_STEPS, MAX_HELD_OFFSET
 from lerobot_ivmc.recovery.manoeuvres import (
     CARRY_TO_GOAL,
     LOOK,
@@ -50,7 +50,11 @@ from lerobot_ivmc.recovery.manoeuvres import (
 HELD_GAP = (0.01, 0.09)
 # Carry at least this high above the believed goal (metres), so the object clears the table on the way.
 CARRY_CLEARANCE = 0.05
-# The object is lowered to this height above the believed goal (metres) before it is let go.
+# An object that is let go at its goal is lowered to this height above the believed goal (metres) first. One
+# that stays held (pick_reach: the stick's far end touches the target while held) is brought to the goal
+# itself: the goal head's label is where the object is at the demo's end, with the task done (pick_reach's
+# stick then rests on the table; 2 cm above it the far end misses the 3 cm touch height, and a re-grasp and
+# carry with exact beliefs fails).
 PLACE_CLEARANCE = 0.02
 # After a release, the gripper rises this far (metres) with open fingers.
 RELEASE_LIFT = 0.05
@@ -62,8 +66,6 @@ GRASP_HEIGHT = 0.01
 FINGER_STEPS = 6
 # Largest grip-point move per step while anchored (metres): the scripted demos' speed.
 ANCHOR_SPEED = 0.03
-# The largest believed offset of a held object from the grip point that is corrected for (metres).
-MAX_HELD_OFFSET = 0.05
 # The object counts as pushed onto the goal when believed this close to it along x and along y (metres):
 # half the targets' 3 cm radius, above the object head's typical error so that noise is not pushed after.
 PUSH_LEG_MIN = 0.015
@@ -184,15 +186,17 @@ def carry_to_goal(
     steps: int,
     tolerance: float,
     release: bool,
+    max_held_offset: float = MAX_HELD_OFFSET,
 ) -> WaypointMoves:
     """Holding the object: rise to a carrying height, bring the object (at `held_offset` from the grip
-    point, clipped to `MAX_HELD_OFFSET`) over `goal` and down to `PLACE_CLEARANCE` above it with the
-    gripper closed; with `release`, open there and rise by `RELEASE_LIFT` (then a fresh memory)."""
+    point, clipped to `max_held_offset`) over `goal` and down to it with the gripper closed; with `release`,
+    to `PLACE_CLEARANCE` above it, open there and rise by `RELEASE_LIFT` (then a fresh memory)."""
     offset = np.asarray(held_offset, dtype=np.float64)
     norm = float(np.linalg.norm(offset))
-    if norm > MAX_HELD_OFFSET:
-        offset = offset * (MAX_HELD_OFFSET / norm)
-    place = np.asarray(goal, dtype=np.float64) - offset + np.array([0.0, 0.0, PLACE_CLEARANCE])
+    if norm > max_held_offset:
+        offset = offset * (max_held_offset / norm)
+    clearance = PLACE_CLEARANCE if release else 0.0
+    place = np.asarray(goal, dtype=np.float64) - offset + np.array([0.0, 0.0, clearance])
     height = max(float(grip[2]), float(place[2]) + CARRY_CLEARANCE)
     waypoints = [
         Waypoint(np.array([place[0], place[1], height]), GRIPPER_CLOSE),

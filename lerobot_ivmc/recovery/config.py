@@ -23,6 +23,12 @@ ANCHOR_GOAL_STEPS = 30
 # the object head on the memory was a median 9.3 cm off at the end of such a look, the frame head 4.2 cm,
 # and the look of 6 steps with the frame head rescued the most (docs/RESULTS.md, "push: the frame head").
 PUSHED_OBJECT_LOOK_STEPS = 6
+# A carry corrects the believed offset of a held object's centre from the grip point up to the object's
+# longest half-size plus this margin (metres): 5 cm for pick_place's cube, 12.5 cm for pick_reach's stick,
+# which the grasp holds 7 cm from its centre (a larger belief is shortened to the limit).
+HELD_OFFSET_MARGIN = 0.025
+# The limit where the object's size is not given: the cube's.
+MAX_HELD_OFFSET = 0.05
 
 
 @dataclass
@@ -93,6 +99,10 @@ class RecoveryConfig:
         anchor_goal_steps: anchor's goal is the mean of the goals the policy believed at this many least
             uncertain steps so far (one step's belief is noisy; more steps also reach back to before the
             goal belief drifted toward the object).
+        anchor_max_held_offset: the largest believed offset (metres) of a held object's centre from the
+            grip point that a carry corrects for (a larger belief is shortened to it). None: from the task,
+            the object's longest half-size + `HELD_OFFSET_MARGIN` (5 cm for pick_place's cube, 12.5 cm for
+            pick_reach's stick, which the grasp holds 7 cm from its centre).
         anchor_object: which of the policy's heads anchor reads the object's position from. "memory": the
             object head on the LSTM's state, which carries what the policy believed before; "frame" (a
             policy trained with the frame position head): that head's reading of the current frame's CNN
@@ -124,10 +134,15 @@ class RecoveryConfig:
     anchor_look_steps: int | None = None
     anchor_goal_steps: int = ANCHOR_GOAL_STEPS
     anchor_object: str | None = None
+    anchor_max_held_offset: float | None = None
     max_videos: int = 4
 
     def for_task(
-        self, object_picked: bool, object_held_at_end: bool, object_rest_height: float = math.nan
+        self,
+        object_picked: bool,
+        object_held_at_end: bool,
+        object_rest_height: float = math.nan,
+        object_half_length: float = MAX_HELD_OFFSET - HELD_OFFSET_MARGIN,
     ) -> RecoveryConfig:
         """These settings with anchor's unset task-dependent ones taken from the task's object handling and
         geometry (the settings themselves for another mode)."""
@@ -147,6 +162,11 @@ class RecoveryConfig:
             ),
             anchor_object=(
                 ("memory" if object_picked else "frame") if self.anchor_object is None else self.anchor_object
+            ),
+            anchor_max_held_offset=(
+                object_half_length + HELD_OFFSET_MARGIN
+                if self.anchor_max_held_offset is None
+                else self.anchor_max_held_offset
             ),
         )
 
@@ -193,16 +213,24 @@ class RecoveryConfig:
             self.anchor_look_steps,
             self.anchor_goal_steps,
             self.anchor_object,
+            self.anchor_max_held_offset,
         )
-        if anchor_settings != (40, None, None, None, None, ANCHOR_GOAL_STEPS, None) and self.mode != "anchor":
+        defaults = (40, None, None, None, None, ANCHOR_GOAL_STEPS, None, None)
+        if anchor_settings != defaults and self.mode != "anchor":
             raise ValueError(
                 "--recovery.anchor_steps, anchor_release, anchor_grasp, anchor_rest_height, "
-                "anchor_look_steps, anchor_goal_steps and anchor_object set the anchor mode; they have no "
-                f"effect with --recovery.mode={self.mode}: drop them or use --recovery.mode=anchor."
+                "anchor_look_steps, anchor_goal_steps, anchor_object and anchor_max_held_offset set the "
+                f"anchor mode; they have no effect with --recovery.mode={self.mode}: drop them or use "
+                "--recovery.mode=anchor."
             )
         if self.anchor_object is not None and self.anchor_object not in ANCHOR_OBJECT:
             raise ValueError(
                 f"--recovery.anchor_object must be one of {ANCHOR_OBJECT}, got {self.anchor_object!r}."
+            )
+        if self.anchor_max_held_offset is not None and not 0 <= self.anchor_max_held_offset < math.inf:
+            raise ValueError(
+                "--recovery.anchor_max_held_offset is a distance in metres >= 0, got "
+                f"{self.anchor_max_held_offset}."
             )
         if self.anchor_goal_steps < 1:
             raise ValueError(f"--recovery.anchor_goal_steps must be >= 1, got {self.anchor_goal_steps}.")

@@ -247,6 +247,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
             cfg.anchor_steps,
             cfg.move_tolerance,
             cfg.anchor_release,
+            cfg.anchor_max_held_offset,
         )
 
     def _push(self, row: int, grip: np.ndarray, legs: int) -> Manoeuvre:

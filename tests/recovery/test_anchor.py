@@ -16,6 +16,7 @@ from torch import Tensor
 
 from lerobot_ivmc.envs import make_task_env, task_env_class
 from lerobot_ivmc.envs.fetch_env import GRIPPER_CLOSE, GRIPPER_OPEN
+from lerobot_ivmc.experts import make_expert
 from lerobot_ivmc.policies import BVMCConfig
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
 from lerobot_ivmc.recovery.anchor import (
@@ -151,7 +152,8 @@ def test_anchor_holding_carries_to_the_goal_believed_at_the_least_uncertain_step
     assert event["step"] == 13 and event["holding"] is True
     held_offset = start + [0.02, 0.0, 0.0] - grips[13]  # where the policy believes the cube sits in the hand
     goal = np.mean(goals[:goal_steps], axis=0)  # (1.2, 0.8), or drawn toward (1.4, 0.6) by 2 of 12 steps
-    target = goal + [0.0, 0.0, PLACE_CLEARANCE] - held_offset  # the object over the goal
+    # the object over the goal, to be let go; held at the end, at the goal itself
+    target = goal + [0.0, 0.0, PLACE_CLEARANCE if release else 0.0] - held_offset
     np.testing.assert_allclose(event["target"], target, atol=1e-4)
     phases = np.stack(controller.traces[-1].phase)[:, 0]
     carrying = np.flatnonzero(phases == CARRY_TO_GOAL)
@@ -167,6 +169,59 @@ def test_anchor_holding_carries_to_the_goal_believed_at_the_least_uncertain_step
         assert at_goal == carrying[-1] + 1 and changes == []
     with pytest.raises(ValueError, match="no effect with --recovery.mode=init"):
         RecoveryConfig(mode="init", anchor_release=False)
+
+
+def demo_end_object(task: str, seed: int, steps: int = 200) -> np.ndarray:
+    """Where the object is at the end of the scripted demo of scene `seed` (`lite`'s 200 steps): the goal
+    head's label."""
+    env = make_task_env(task, image_size=64, terminate_on_success=False)
+    env.reset(seed=seed)
+    expert = make_expert(env)
+    expert.reset()
+    for _ in range(steps):
+        env.step(expert.act())
+    end = env.object_position.copy()
+    env.close()
+    return end
+
+
+@pytest.mark.parametrize("expert_steps", [0, 30])
+def test_anchor_with_exact_beliefs_completes_pick_reach(expert_steps: int) -> None:
+    """pick_reach ends with the stick held, its far end on the target: with exact beliefs (the test reads
+    the stick's position for the object head, the demo's end for the goal head) anchor completes the task
+    from the start pose (re-grasp, carry) and from the expert's lifted stick, grasped at its near end 7 cm
+    from the centre (carry): the object goes to the goal itself, not 2 cm above it, and the stick's offset
+    is not shortened to a cube's."""
+    seed, task = 0, "pick_reach"
+    goal = demo_end_object(task, seed)
+    env = make_task_env(task, image_size=64)
+    observation, _ = env.reset(seed=seed)
+    expert = make_expert(env)
+    expert.reset()
+    fire = max(expert_steps, 10)
+    policy = scripted_policy(
+        [0.05] * fire + [1.0] + [0.0] * 300, move=[0.0, 0.0, 0.0], gripper=GRIPPER_CLOSE, **WITH_GOAL_HEAD
+    )
+    believing(policy, lambda: env.object_position, [list(goal)] * 300)
+    stick = task_env_class(task).object_shape
+    settings = RecoveryConfig(mode="anchor", window=1, initial_interval=0, anchor_steps=60).for_task(
+        True, True, stick.rest_height, max(stick.half_size)
+    )
+    controller = IntrospectiveController(
+        policy, settings, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS, state_stats=STATE_IDENTITY
+    )
+    controller.reset()
+    success = False
+    for step in range(150):
+        action = controller.select_action(to_batch(observation))[0].numpy()
+        observation, _, terminated, _, info = env.step(expert.act() if step < expert_steps else action)
+        success = success or bool(info["is_success"])
+        if terminated:
+            break
+    env.close()
+    event = controller.traces[-1].events[0][0]
+    assert event["step"] == fire and event["holding"] is (expert_steps > 0)
+    assert success, "anchor's carry did not bring the stick's far end onto the target"
 
 
 @pytest.mark.parametrize("holds", [True, False])
@@ -336,22 +391,34 @@ def test_recovery_reads_nothing_of_the_simulator_state(mode: str) -> None:
 def test_anchor_takes_its_object_handling_from_the_task_unless_given() -> None:
     """push's cube is never picked up (no re-grasp; a look from the start pose and the frame head's
     reading of where it is); pick_reach's stick is held at the end (no release)."""
-    for task, grasp, release, look, source in [
-        ("push", False, True, PUSHED_OBJECT_LOOK_STEPS, "frame"),
-        ("pick_place", True, True, 0, "memory"),
-        ("pick_reach", True, False, 0, "memory"),
+    for task, grasp, release, look, source, max_offset in [
+        ("push", False, True, PUSHED_OBJECT_LOOK_STEPS, "frame", 0.05),
+        ("pick_place", True, True, 0, "memory", 0.05),
+        ("pick_reach", True, False, 0, "memory", 0.125),  # the stick is held 7 cm from its centre
     ]:
         env_class = task_env_class(task)
         settings = RecoveryConfig(mode="anchor").for_task(
-            env_class.object_picked, env_class.object_held_at_end
+            env_class.object_picked,
+            env_class.object_held_at_end,
+            env_class.object_shape.rest_height,
+            max(env_class.object_shape.half_size),
         )
         assert (settings.anchor_grasp, settings.anchor_release) == (grasp, release), task
         assert (settings.anchor_look_steps, settings.anchor_object) == (look, source), task
+        assert settings.anchor_max_held_offset == pytest.approx(max_offset), task
     given = RecoveryConfig(
         mode="anchor", anchor_grasp=True, anchor_release=False, anchor_look_steps=0, anchor_object="memory"
     ).for_task(False, False)
     assert (given.anchor_grasp, given.anchor_release) == (True, False)
     assert (given.anchor_look_steps, given.anchor_object) == (0, "memory")
+    assert (
+        RecoveryConfig(mode="anchor", anchor_max_held_offset=0.2)
+        .for_task(True, True, 0.4, 0.1)
+        .anchor_max_held_offset
+        == 0.2
+    )
+    with pytest.raises(ValueError, match="anchor_max_held_offset is a distance"):
+        RecoveryConfig(mode="anchor", anchor_max_held_offset=-0.1)
     with pytest.raises(ValueError, match="anchor_object must be one of"):
         RecoveryConfig(mode="anchor", anchor_object="camera")
     with pytest.raises(ValueError, match="no effect with --recovery.mode=init"):
