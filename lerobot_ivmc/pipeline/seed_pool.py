@@ -174,6 +174,8 @@ def pool_studies(studies: dict[str, dict]) -> tuple[dict, list[str]]:
                 "complete": results["complete"],
                 "per_fc": results["per_fc"],
                 "total_wall_s": results.get("total_wall_s"),
+                # the data-budget rule's record, where the study chose its demos by it
+                **({"regime": results["regime"]} if "regime" in results else {}),
             }
         )
     episodes = {sub["n"] for row in [*rows, *recovery_rows] for sub in row["subtasks"].values()}

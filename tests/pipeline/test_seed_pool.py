@@ -61,6 +61,7 @@ def one_seed_study(seed: int, vmc: float, bvmc: float, anchor: float, anchor_res
 def test_two_one_seed_studies_pool_into_seed_means_and_one_rescue_test() -> None:
     first = one_seed_study(1000, 70.0, 80.0, 95.0, rescue(20, 16, 1))
     second = one_seed_study(3000, 60.0, 70.0, 85.0, rescue(30, 16, 1))
+    second["regime"] = {"chosen_demos": 500}  # its demos chosen by the data-budget rule
     pooled, notes = pool_studies({"a.json": first, "b.json": second})
 
     section = pooled["training_seeds"]
@@ -82,6 +83,7 @@ def test_two_one_seed_studies_pool_into_seed_means_and_one_rescue_test() -> None
         ("a.json", [1000]),
         ("b.json", [3000]),
     ]
+    assert [s.get("regime") for s in pooled["pooled_from"]] == [None, {"chosen_demos": 500}]
     assert notes == []
 
 
