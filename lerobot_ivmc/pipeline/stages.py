@@ -539,8 +539,13 @@ def eval_stage(
 def anchor_settings(mode: str | None) -> dict:
     """For an anchor row, anchor's settings with today's defaults: they are chosen on validation scenes
     (beyond the paper) and may change, which must redo the row. The paper's modes keep the paper's defaults
-    and no settings (so their rows keep their fingerprints)."""
+    and no settings (so their rows keep their fingerprints). Settings added later are left out at their
+    default where it reproduces what the rows computed before (`anchor_max_held_offset`: the cube's limit
+    is the one before), so that finished rows are not redone for them."""
     if mode != "anchor":
         return {}
     config = asdict(RecoveryConfig(mode="anchor"))
-    return json.loads(json.dumps({k: v for k, v in config.items() if k.startswith("anchor_")}))
+    settings = {k: v for k, v in config.items() if k.startswith("anchor_")}
+    if settings["anchor_max_held_offset"] is None:
+        del settings["anchor_max_held_offset"]
+    return json.loads(json.dumps(settings))
