@@ -63,7 +63,7 @@ def test_independent_stages_run_side_by_side_each_after_what_it_waits_for(tmp_pa
     for stage in stages:
         for before in stage.prerequisites:
             assert spans[stage.name][0] >= spans[before][1], (stage.name, before)
-    assert ("train_a", "train_b") in overlaps(spans)
+    assert {"train_a", "train_b"} in [set(pair) for pair in overlaps(spans)]  # (either may start first)
     # Threads from the CPU share: 1 for a one-CPU stage, 2 (the clamp) for the one asking for 8.
     assert (root / "train_a" / "done").read_text() == "1"
     assert (root / "eval" / "done").read_text() == "2"
