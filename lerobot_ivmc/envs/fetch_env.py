@@ -315,7 +315,9 @@ class IvmcFetchEnv(gym.Env, EzPickle):
 
     def _update_progress(self) -> None:
         for name, reached in self._subtask_status().items():
-            self.progress[name] = self.progress[name] or reached
+            # A Python bool: a numpy one (a comparison of positions) makes gymnasium's vector env collect
+            # `is_success` in an object array, where LeRobot's rollout then fails on a parked env's None.
+            self.progress[name] = bool(self.progress[name] or reached)
 
     def _make_observation_space(self) -> gym.spaces.Dict:
         spaces: dict[str, gym.Space] = {

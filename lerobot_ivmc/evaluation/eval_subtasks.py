@@ -152,15 +152,9 @@ def run_evaluation(cfg: IvmcEvalConfig, output_dir: Path, ignore_stored_threshol
     if is_bayesian:
         if cfg.recovery.mode != "none" and cfg.recovery.max_videos > 0:
             video_store = RecoveryVideoStore(cfg.recovery.max_videos, policy.config.image_feature_key)
-        task = task_env_class(cfg.env.task)
         controller = IntrospectiveController(
             policy,
-            cfg.recovery.for_task(
-                task.object_picked,
-                task.object_held_at_end,
-                task.object_shape.rest_height,
-                max(task.object_shape.half_size),
-            ),
+            cfg.recovery.for_task_class(task_env_class(cfg.env.task)),
             threshold,
             window,
             env_state_stats(loaded.preprocessor),

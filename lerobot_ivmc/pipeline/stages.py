@@ -332,11 +332,15 @@ def row_stages(
         ("vmc", root / "train" / f"vmc_{folder}" / CHECKPOINT, None, train_stage_name("vmc", fc, train_seed))
     ]
     rows += [("bvmc", bvmc, mode, threshold.name) for mode in cfg.recovery_modes]
-    # anchor reads a pushed object where the frame position head places it: a policy without that head
-    # reads it from the memory's object head instead.
-    pushed = not task_env_class(cfg.task).object_picked
-    without_frame_head = cfg.train.policy.frame_position_head is False
-    anchor_flags = ["--recovery.anchor_object=memory"] if pushed and without_frame_head else []
+    # anchor reads a pushed object, or one held at the end, where the frame position head places it (and the
+    # latter's goal too): a policy without that head reads them from the memory's heads instead.
+    task = task_env_class(cfg.task)
+    anchor_flags = []
+    if cfg.train.policy.frame_position_head is False:
+        if not task.object_picked or task.object_held_at_end:
+            anchor_flags.append("--recovery.anchor_object=memory")
+        if task.object_held_at_end:
+            anchor_flags.append("--recovery.anchor_goal=memory")
     stages = []
     for policy_type, checkpoint, mode, source in rows:
         name = eval_stage_name(policy_type, fc, mode, train_seed)
@@ -354,6 +358,7 @@ def row_stages(
                 mode,
                 source,
                 recovery_flags=anchor_flags if mode == "anchor" else [],
+                task=cfg.task,
             )
         )
     fig3 = fig3_stage_name(cfg, fc, train_seed)
@@ -512,9 +517,10 @@ def eval_stage(
     source: str,
     split: str = "test",
     recovery_flags: list[str] | None = None,
+    task: str | None = None,
 ) -> Stage:
     """`lerobot-ivmc-eval` on `split` scenes (with `--recovery.mode` and `recovery_flags` for the BVMC
-    rows)."""
+    rows; an anchor row's settings, resolved for `task`, enter its fingerprint)."""
     return Stage(
         name,
         [
@@ -532,20 +538,19 @@ def eval_stage(
         output=out,
         done_file=out / EVAL_INFO_FILE,
         depends=[source],
-        settings=anchor_settings(mode),
+        settings=anchor_settings(mode, task),
     )
 
 
-def anchor_settings(mode: str | None) -> dict:
-    """For an anchor row, anchor's settings with today's defaults: they are chosen on validation scenes
-    (beyond the paper) and may change, which must redo the row. The paper's modes keep the paper's defaults
-    and no settings (so their rows keep their fingerprints). Settings added later are left out at their
-    default where it reproduces what the rows computed before (`anchor_max_held_offset`: the cube's limit
-    is the one before), so that finished rows are not redone for them."""
+def anchor_settings(mode: str | None, task: str | None) -> dict:
+    """For an anchor row, anchor's settings as they act on `task` (its defaults resolved for the task's
+    object): they are chosen on validation scenes (beyond the paper) and may change, per task, which must
+    redo the row. The paper's modes keep the paper's defaults and no settings (so their rows keep their
+    fingerprints)."""
     if mode != "anchor":
         return {}
-    config = asdict(RecoveryConfig(mode="anchor"))
-    settings = {k: v for k, v in config.items() if k.startswith("anchor_")}
-    if settings["anchor_max_held_offset"] is None:
-        del settings["anchor_max_held_offset"]
+    config = RecoveryConfig(mode="anchor")
+    if task is not None:
+        config = config.for_task_class(task_env_class(task))
+    settings = {k: v for k, v in asdict(config).items() if k.startswith("anchor_")}
     return json.loads(json.dumps(settings))

@@ -187,10 +187,12 @@ def carry_to_goal(
     tolerance: float,
     release: bool,
     max_held_offset: float = MAX_HELD_OFFSET,
+    reset_memory: bool | None = None,
 ) -> WaypointMoves:
     """Holding the object: rise to a carrying height, bring the object (at `held_offset` from the grip
     point, clipped to `max_held_offset`) over `goal` and down to it with the gripper closed; with `release`,
-    to `PLACE_CLEARANCE` above it, open there and rise by `RELEASE_LIFT` (then a fresh memory)."""
+    to `PLACE_CLEARANCE` above it, open there and rise by `RELEASE_LIFT`. The policy then goes on with a
+    fresh memory (`reset_memory`; None: after a release only)."""
     offset = np.asarray(held_offset, dtype=np.float64)
     norm = float(np.linalg.norm(offset))
     if norm > max_held_offset:
@@ -206,7 +208,8 @@ def carry_to_goal(
         waypoints[-1].hold = 1
         waypoints.append(Waypoint(place, GRIPPER_OPEN, hold=FINGER_STEPS))
         waypoints.append(Waypoint(place + np.array([0.0, 0.0, RELEASE_LIFT]), GRIPPER_OPEN))
-    return WaypointMoves(waypoints, steps, tolerance, CARRY_TO_GOAL, place, reset_memory=release)
+    reset_memory = release if reset_memory is None else reset_memory
+    return WaypointMoves(waypoints, steps, tolerance, CARRY_TO_GOAL, place, reset_memory=reset_memory)
 
 
 class LookFromStart(Manoeuvre):
@@ -269,14 +272,20 @@ def on_table(obj: np.ndarray, rest_height: float) -> np.ndarray:
 
 
 def regrasp(
-    grip: np.ndarray, obj: np.ndarray, steps: int, tolerance: float, rest_height: float = np.nan
+    grip: np.ndarray,
+    obj: np.ndarray,
+    steps: int,
+    tolerance: float,
+    rest_height: float = np.nan,
+    grasp_offset: np.ndarray | tuple[float, float, float] = (0.0, 0.0, 0.0),
 ) -> WaypointMoves:
-    """Not holding: open, rise above the believed object (at `rest_height`, `on_table`), descend to
-    `GRASP_HEIGHT` above its centre, close, lift back up; then the controller carries it on if the fingers
-    hold it."""
+    """Not holding: open, rise above the grasp point (`grasp_offset` from the believed object's centre, at
+    `rest_height`, `on_table`), descend to `GRASP_HEIGHT` above it, close, lift back up; then the controller
+    carries it on if the fingers hold it. The manoeuvre's `held_offset` is where the object's centre then
+    sits from the grip point, (3,)."""
     obj = on_table(obj, rest_height)
-    above = obj + np.array([0.0, 0.0, APPROACH_HEIGHT])
-    grasp = obj + np.array([0.0, 0.0, GRASP_HEIGHT])
+    grasp = obj + np.asarray(grasp_offset, dtype=np.float64) + np.array([0.0, 0.0, GRASP_HEIGHT])
+    above = grasp + np.array([0.0, 0.0, APPROACH_HEIGHT])
     waypoints = [
         Waypoint(rise_towards(grip, above), GRIPPER_OPEN),
         Waypoint(above, GRIPPER_OPEN),
@@ -284,7 +293,9 @@ def regrasp(
         Waypoint(grasp, GRIPPER_CLOSE, hold=FINGER_STEPS),
         Waypoint(above, GRIPPER_CLOSE),
     ]
-    return WaypointMoves(waypoints, steps, tolerance, REGRASP, grasp, reset_memory=True, then_carry=True)
+    moves = WaypointMoves(waypoints, steps, tolerance, REGRASP, grasp, reset_memory=True, then_carry=True)
+    moves.held_offset = obj - grasp
+    return moves
 
 
 def push_to_goal(

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 
 # none: Bayesian VMC without recovery; min_unc: the paper's back-track and minimum-uncertainty recovery;
 # rand and init: the paper's baselines ("Baselines for Visuomotor Control Recovery"); anchor (beyond the
@@ -12,6 +12,9 @@ RECOVERY_MODES = ("none", "rand", "init", "min_unc", "anchor")
 MIN_UNC_MEMORY = ("restore", "reset", "keep")
 MIN_UNC_CHOICE = ("foresight", "mean", "random")
 ANCHOR_OBJECT = ("memory", "frame")
+ANCHOR_GOAL = ("memory", "frame")
+ANCHOR_HELD_OFFSET = ("believed", "grasped")
+ANCHOR_CARRY_MEMORY = ("keep", "reset")
 # anchor's goal is the mean of the goals believed at this many least uncertain steps by default. One step's
 # belief is noisy (pick_place's validation failures: 50% of single-step anchors within the target's 3 cm, 67%
 # of 10-step means); the 10 least uncertain steps can all fall after the goal belief drifted toward the
@@ -22,13 +25,19 @@ ANCHOR_GOAL_STEPS = 30
 # memory and anchor reads the object where the frame position head places it: on push's validation failures
 # the object head on the memory was a median 9.3 cm off at the end of such a look, the frame head 4.2 cm,
 # and the look of 6 steps with the frame head rescued the most (docs/RESULTS.md, "push: the frame head").
-PUSHED_OBJECT_LOOK_STEPS = 6
+# The same for an object held at the end (pick_reach's stick), and the goal read from the frame head too: on
+# its validation failures after a missed grasp the memory believed the stick in the empty hand, and the
+# memory's goal sat a median 2.6 cm from the demos' end, the frame head's 1.1 cm (docs/RESULTS.md,
+# "pick_reach: the frame head").
+LOOK_STEPS = 6
 # A carry corrects the believed offset of a held object's centre from the grip point up to the object's
 # longest half-size plus this margin (metres): 5 cm for pick_place's cube, 12.5 cm for pick_reach's stick,
 # which the grasp holds 7 cm from its centre (a larger belief is shortened to the limit).
 HELD_OFFSET_MARGIN = 0.025
 # The limit where the object's size is not given: the cube's.
 MAX_HELD_OFFSET = 0.05
+# The farthest a grasp point may lie from the object's centre along an axis (metres): past the stick's ends.
+MAX_GRASP_OFFSET = 0.15
 
 
 @dataclass
@@ -94,11 +103,28 @@ class RecoveryConfig:
             this many steps, so that the object is located as in every demo's first frames, not by the
             memory whose belief failed (push's failures: the cube believed in front of the fingers, or on
             the goal, while the camera shows it elsewhere). 0: act at once on the beliefs of the step the
-            trigger fired. None: from the task, `PUSHED_OBJECT_LOOK_STEPS` for an object that is pushed, 0
-            for one that is picked up.
+            trigger fired. None: from the task, `LOOK_STEPS` for an object that is pushed or held at the
+            end (pick_reach's stick, whose missed grasps leave the memory believing it in the hand), 0 for
+            one that is picked up and let go.
         anchor_goal_steps: anchor's goal is the mean of the goals the policy believed at this many least
             uncertain steps so far (one step's belief is noisy; more steps also reach back to before the
             goal belief drifted toward the object).
+        anchor_goal: which head the anchored goal is read from: "memory", the goal head on the LSTM's state;
+            "frame" (a policy trained with the frame position head and the goal head): that head's reading of
+            each frame alone. None: from the task, "frame" for an object held at the end (pick_reach's
+            validation failures: the frame head's 30-step goal a median 1.1 cm from the demos' end, 98%
+            within the target's 3 cm; the memory's 2.6 cm, 57%), else "memory".
+        anchor_grasp_offset: where anchor closes the fingers on an object it re-grasps, from the object's
+            believed centre (metres, world x, y, z). The centre by default: on pick_reach's validation
+            failures a re-grasp at the demos' grasp point (7 cm toward the stick's near end,
+            `[-0.07,0,0]`) rescued 15 of 54, one at the centre 25 (docs/RESULTS.md).
+        anchor_held_offset: after a re-grasp that holds, the carry places the object by the offset the
+            policy believes ("believed", as a carry of an object the policy picked itself does) or by the
+            one it was grasped at ("grasped": the object's centre at `-anchor_grasp_offset` from the
+            fingers). On pick_reach's validation failures the two rescued as many (docs/RESULTS.md).
+        anchor_carry_memory: the memory the policy goes on with after a carry: "reset" (a fresh one, as after
+            init's and rand's moves: a belief that stalled the policy goes with it) or "keep". None: from the
+            task ("reset" where anchor lets the object go at the goal, else "keep").
         anchor_max_held_offset: the largest believed offset (metres) of a held object's centre from the
             grip point that a carry corrects for (a larger belief is shortened to it). None: from the task,
             the object's longest half-size + `HELD_OFFSET_MARGIN` (5 cm for pick_place's cube, 12.5 cm for
@@ -135,7 +161,18 @@ class RecoveryConfig:
     anchor_goal_steps: int = ANCHOR_GOAL_STEPS
     anchor_object: str | None = None
     anchor_max_held_offset: float | None = None
+    anchor_goal: str | None = None
+    anchor_grasp_offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    anchor_held_offset: str = "believed"
+    anchor_carry_memory: str | None = None
     max_videos: int = 4
+
+    def for_task_class(self, task_class: type) -> RecoveryConfig:
+        """`for_task` with the object handling and geometry of a task's env class (`IvmcFetchEnv`)."""
+        shape = task_class.object_shape
+        return self.for_task(
+            task_class.object_picked, task_class.object_held_at_end, shape.rest_height, max(shape.half_size)
+        )
 
     def for_task(
         self,
@@ -148,25 +185,36 @@ class RecoveryConfig:
         geometry (the settings themselves for another mode)."""
         if self.mode != "anchor":
             return self
+        release = not object_held_at_end if self.anchor_release is None else self.anchor_release
+        # A pushed object, or one held at the end, is looked for from the start pose with the frame head.
+        looks = not object_picked or object_held_at_end
         return replace(
             self,
-            anchor_release=not object_held_at_end if self.anchor_release is None else self.anchor_release,
+            anchor_release=release,
             anchor_grasp=object_picked if self.anchor_grasp is None else self.anchor_grasp,
             anchor_rest_height=(
                 object_rest_height if self.anchor_rest_height is None else self.anchor_rest_height
             ),
             anchor_look_steps=(
-                (0 if object_picked else PUSHED_OBJECT_LOOK_STEPS)
-                if self.anchor_look_steps is None
-                else self.anchor_look_steps
+                (LOOK_STEPS if looks else 0) if self.anchor_look_steps is None else self.anchor_look_steps
             ),
             anchor_object=(
-                ("memory" if object_picked else "frame") if self.anchor_object is None else self.anchor_object
+                ("frame" if looks else "memory") if self.anchor_object is None else self.anchor_object
             ),
             anchor_max_held_offset=(
                 object_half_length + HELD_OFFSET_MARGIN
                 if self.anchor_max_held_offset is None
                 else self.anchor_max_held_offset
+            ),
+            anchor_goal=(
+                ("frame" if object_held_at_end else "memory")
+                if self.anchor_goal is None
+                else self.anchor_goal
+            ),
+            anchor_carry_memory=(
+                ("reset" if release else "keep")
+                if self.anchor_carry_memory is None
+                else self.anchor_carry_memory
             ),
         )
 
@@ -205,23 +253,15 @@ class RecoveryConfig:
             raise ValueError(
                 f"--recovery.min_unc_memory must be one of {MIN_UNC_MEMORY}, got {self.min_unc_memory!r}."
             )
-        anchor_settings = (
-            self.anchor_steps,
-            self.anchor_release,
-            self.anchor_grasp,
-            self.anchor_rest_height,
-            self.anchor_look_steps,
-            self.anchor_goal_steps,
-            self.anchor_object,
-            self.anchor_max_held_offset,
-        )
-        defaults = (40, None, None, None, None, ANCHOR_GOAL_STEPS, None, None)
-        if anchor_settings != defaults and self.mode != "anchor":
+        set_here = [
+            f.name
+            for f in fields(self)
+            if f.name.startswith("anchor_") and _as_tuple(getattr(self, f.name)) != f.default
+        ]
+        if set_here and self.mode != "anchor":
             raise ValueError(
-                "--recovery.anchor_steps, anchor_release, anchor_grasp, anchor_rest_height, "
-                "anchor_look_steps, anchor_goal_steps, anchor_object and anchor_max_held_offset set the "
-                f"anchor mode; they have no effect with --recovery.mode={self.mode}: drop them or use "
-                "--recovery.mode=anchor."
+                f"--recovery.{', '.join(set_here)} set the anchor mode; they have no effect with "
+                f"--recovery.mode={self.mode}: drop them or use --recovery.mode=anchor."
             )
         if self.anchor_object is not None and self.anchor_object not in ANCHOR_OBJECT:
             raise ValueError(
@@ -231,6 +271,28 @@ class RecoveryConfig:
             raise ValueError(
                 "--recovery.anchor_max_held_offset is a distance in metres >= 0, got "
                 f"{self.anchor_max_held_offset}."
+            )
+        if self.anchor_goal is not None and self.anchor_goal not in ANCHOR_GOAL:
+            raise ValueError(
+                f"--recovery.anchor_goal must be one of {ANCHOR_GOAL}, got {self.anchor_goal!r}."
+            )
+        if self.anchor_held_offset not in ANCHOR_HELD_OFFSET:
+            raise ValueError(
+                f"--recovery.anchor_held_offset must be one of {ANCHOR_HELD_OFFSET}, got "
+                f"{self.anchor_held_offset!r}."
+            )
+        if self.anchor_carry_memory is not None and self.anchor_carry_memory not in ANCHOR_CARRY_MEMORY:
+            raise ValueError(
+                f"--recovery.anchor_carry_memory must be one of {ANCHOR_CARRY_MEMORY}, got "
+                f"{self.anchor_carry_memory!r}."
+            )
+        if len(self.anchor_grasp_offset) != 3 or not all(
+            math.isfinite(v) and abs(v) <= MAX_GRASP_OFFSET for v in self.anchor_grasp_offset
+        ):
+            raise ValueError(
+                "--recovery.anchor_grasp_offset is the grasp point's offset from the object's centre, three "
+                f"distances in metres within +-{MAX_GRASP_OFFSET} (e.g. '[-0.07,0,0]'); got "
+                f"{self.anchor_grasp_offset}."
             )
         if self.anchor_goal_steps < 1:
             raise ValueError(f"--recovery.anchor_goal_steps must be >= 1, got {self.anchor_goal_steps}.")
@@ -259,3 +321,8 @@ class RecoveryConfig:
             raise ValueError(
                 f"--recovery.rand_step_scale is in action units, at most 1; got {self.rand_step_scale}."
             )
+
+
+def _as_tuple(value):
+    """A list (a draccus-parsed or user-built grasp offset) as a tuple, to compare with a default."""
+    return tuple(value) if isinstance(value, list) else value

@@ -44,8 +44,8 @@ from lerobot_ivmc.recovery.manoeuvres import (
 from lerobot_ivmc.recovery.rollout_wrapper import BVMCRolloutWrapper
 from lerobot_ivmc.recovery.trigger import RecoveryTrigger
 
-# The object's part of the frame position head's outputs (EE 0:3, object 3:6, the goal 6:9).
-OBJECT_POSITION = slice(3, 6)
+# The object's and the goal's parts of the frame position head's outputs (EE 0:3, object 3:6, goal 6:9).
+OBJECT_POSITION, GOAL_POSITION = slice(3, 6), slice(6, 9)
 
 
 @dataclass
@@ -139,11 +139,14 @@ class IntrospectiveController(BVMCRolloutWrapper):
                 "--recovery.mode=anchor reads the goal the policy believes: it needs a policy trained with "
                 "--policy.goal_head=true (the lite preset's); use another --recovery.mode for this one."
             )
-        if recovery.anchor_object == "frame" and not getattr(policy.config, "frame_position_head", False):
+        on_frame = [name for name in ("anchor_object", "anchor_goal") if getattr(recovery, name) == "frame"]
+        if on_frame and not getattr(policy.config, "frame_position_head", False):
+            settings = " and ".join(f"--recovery.{name}=frame" for name in on_frame)
+            fix = " ".join(f"--recovery.{name}=memory" for name in on_frame)
             raise ValueError(
-                "--recovery.anchor_object=frame reads the policy's frame position head: it needs a policy "
-                "trained with --policy.frame_position_head=true (the lite preset's); pass "
-                "--recovery.anchor_object=memory for this one."
+                f"{settings} {'read' if len(on_frame) > 1 else 'reads'} the policy's frame position head: it "
+                "needs a policy trained with "
+                f"--policy.frame_position_head=true (the lite preset's); pass {fix} for this one."
             )
         if recovery.mode == "anchor" and state_stats is None:
             raise ValueError(
@@ -221,15 +224,19 @@ class IntrospectiveController(BVMCRolloutWrapper):
         return raw[:, len(ARM_JOINTS) :].numpy().astype(np.float64)
 
     def _update_beliefs(self, prediction: MCPrediction, uncertainty: np.ndarray, normal: np.ndarray) -> None:
-        """Read the believed object and goal positions (the net's deterministic heads, metres); add the
-        goals of rollouts in normal operation to their anchors."""
+        """Read the believed object and goal positions (the net's deterministic heads, or the frame position
+        head's reading of this frame, metres); add the goals of rollouts in normal operation to their
+        anchors."""
         outputs = self.policy.net.decode(prediction.embedding, stochastic=False, with_goal=True)
         mean, std = self.env_state_mean[3:], self.env_state_std[3:]  # the object's part of the env state
         believed = outputs[3]
         if self.recovery.anchor_object == "frame":  # this frame's reading, without the memory
             believed = self.policy.frame_positions[:, OBJECT_POSITION]
         self.object_beliefs = (believed.float().cpu() * std + mean).numpy().astype(np.float64)
-        goals = (outputs[4].float().cpu() * std + mean).numpy().astype(np.float64)
+        goals = outputs[4]
+        if self.recovery.anchor_goal == "frame":  # each frame's reading, averaged by the anchor
+            goals = self.policy.frame_positions[:, GOAL_POSITION]
+        goals = (goals.float().cpu() * std + mean).numpy().astype(np.float64)
         for row in np.flatnonzero(normal):
             self.anchors[row].update(float(uncertainty[row]), goals[row])
 
@@ -237,9 +244,14 @@ class IntrospectiveController(BVMCRolloutWrapper):
         """Whether rollout `row` holds the object: it last commanded "close" and the fingers rest apart."""
         return bool(self.last_gripper[row] == GRIPPER_CLOSE) and is_holding(fingers[row])
 
-    def _carry(self, row: int, grip: np.ndarray) -> Manoeuvre:
+    def _carry(self, row: int, grip: np.ndarray, grasped_offset: np.ndarray | None = None) -> Manoeuvre:
+        """Carry the held object to the anchored goal; `grasped_offset`: where anchor's own re-grasp put the
+        object's centre from the grip point, used instead of the believed offset where
+        `anchor_held_offset` is "grasped"."""
         cfg = self.recovery
         held_offset = self.object_beliefs[row] - grip
+        if grasped_offset is not None and cfg.anchor_held_offset == "grasped":
+            held_offset = grasped_offset
         return carry_to_goal(
             grip,
             self.anchors[row].goal,
@@ -248,6 +260,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
             cfg.move_tolerance,
             cfg.anchor_release,
             cfg.anchor_max_held_offset,
+            cfg.anchor_carry_memory == "reset",
         )
 
     def _push(self, row: int, grip: np.ndarray, legs: int) -> Manoeuvre:
@@ -299,6 +312,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
                 cfg.anchor_steps,
                 cfg.move_tolerance,
                 cfg.anchor_rest_height,
+                cfg.anchor_grasp_offset,
             )
         else:
             manoeuvre = self._push(row, grip, PUSH_LEGS)
@@ -371,7 +385,8 @@ class IntrospectiveController(BVMCRolloutWrapper):
                         self.manoeuvres[row], event_extra = self._anchor(row, grip[row], fingers)
                         self.traces[-1].events[row][-1].update(event_extra)
                     elif manoeuvre.then_carry and self._holding(row, fingers):
-                        self.manoeuvres[row] = self._carry(row, grip[row])  # a re-grasp that held
+                        # a re-grasp that held
+                        self.manoeuvres[row] = self._carry(row, grip[row], manoeuvre.held_offset)
                     elif manoeuvre.then_push and not on_goal(
                         self.object_beliefs[row], self.anchors[row].goal
                     ):

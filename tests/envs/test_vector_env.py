@@ -91,3 +91,25 @@ def test_a_finished_sub_env_parks_until_the_next_batch_with_the_same_seeded_epis
     # Without parking every sub-env is simulated at every step of the batch.
     assert list(lerobot_way.get_attr("simulated_steps")) == [2 * len(actions)] * len(SEEDS)
     lerobot_way.close()
+
+
+def test_success_flags_are_python_bools_so_a_parked_env_reads_false() -> None:
+    """A milestone read from a comparison of positions is a numpy bool (pick_reach's stick over the target
+    but too high). Reported as such, gymnasium's vector env collects `is_success` in an object array with
+    None for a sub-env parked after an earlier success, and LeRobot's rollout fails on it; the envs report
+    Python bools, so the parked sub-env reads False."""
+    vec = make_vector_env(config(), 2, use_async=False)
+    vec.reset(seed=SEEDS[:2])
+    statuses = [
+        {"reach": True, "pick": True, "place": True},
+        {"reach": np.False_, "pick": np.False_, "place": np.False_},
+    ]
+    for env, status in zip(vec.envs, statuses, strict=True):
+        env.unwrapped._subtask_status = lambda status=status: status
+    _, _, terminated, _, _ = vec.step(np.zeros((2, 4), dtype=np.float32))
+    assert terminated.tolist() == [True, False]  # the first succeeds at once and parks
+    for _ in range(EPISODE_LENGTH - 1):
+        _, _, _, truncated, info = vec.step(np.zeros((2, 4), dtype=np.float32))
+    assert truncated.tolist() == [False, True]
+    assert info["final_info"]["is_success"].dtype == bool
+    assert info["final_info"]["is_success"].tolist() == [False, False]

@@ -29,7 +29,7 @@ from lerobot_ivmc.recovery.anchor import (
     push_to_goal,
     regrasp,
 )
-from lerobot_ivmc.recovery.config import PUSHED_OBJECT_LOOK_STEPS, RECOVERY_MODES, RecoveryConfig
+from lerobot_ivmc.recovery.config import LOOK_STEPS, RECOVERY_MODES, RecoveryConfig
 from lerobot_ivmc.recovery.controller import IntrospectiveController
 from lerobot_ivmc.recovery.manoeuvres import CARRY_TO_GOAL, LOOK, NORMAL, PUSH_TO_GOAL, REGRASP
 
@@ -204,9 +204,15 @@ def test_anchor_with_exact_beliefs_completes_pick_reach(expert_steps: int) -> No
     )
     believing(policy, lambda: env.object_position, [list(goal)] * 300)
     stick = task_env_class(task).object_shape
-    settings = RecoveryConfig(mode="anchor", window=1, initial_interval=0, anchor_steps=60).for_task(
-        True, True, stick.rest_height, max(stick.half_size)
-    )
+    settings = RecoveryConfig(
+        mode="anchor",
+        window=1,
+        initial_interval=0,
+        anchor_steps=60,
+        anchor_look_steps=0,  # the memory's heads are scripted here (exact)
+        anchor_object="memory",
+        anchor_goal="memory",
+    ).for_task(True, True, stick.rest_height, max(stick.half_size))
     controller = IntrospectiveController(
         policy, settings, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS, state_stats=STATE_IDENTITY
     )
@@ -222,6 +228,56 @@ def test_anchor_with_exact_beliefs_completes_pick_reach(expert_steps: int) -> No
     event = controller.traces[-1].events[0][0]
     assert event["step"] == fire and event["holding"] is (expert_steps > 0)
     assert success, "anchor's carry did not bring the stick's far end onto the target"
+
+
+@pytest.mark.parametrize("held_offset", ["grasped", "believed"])
+def test_a_regrasp_carries_the_object_by_the_offset_it_grasped_at(held_offset: str) -> None:
+    """anchor re-grasps pick_reach's stick where it is told to (here where every demo holds it, 7 cm toward
+    its near end from the believed centre) and, once the fingers hold it, carries it by where it grasped
+    it. The heads, with the stick held after a re-grasp, believed it 2-4 cm off (scripted here: 2 cm along
+    x and y, 3.5 cm low, as on the test failures): a carry by that belief leaves the far end off the
+    target, one by the grasped offset brings it there."""
+    seed, task = 0, "pick_reach"
+    goal = demo_end_object(task, seed)
+    env = make_task_env(task, image_size=64)
+    observation, _ = env.reset(seed=seed)
+    env_class = task_env_class(task)
+    policy = scripted_policy(
+        [0.05] * 10 + [1.0] + [0.0] * 300, move=[0.0, 0.0, 0.0], gripper=GRIPPER_OPEN, **WITH_GOAL_HEAD
+    )
+    bias = np.array([0.02, 0.02, -0.035])
+    believing(policy, lambda: env.object_position + (bias if env.is_grasped() else 0.0), [list(goal)] * 300)
+    settings = RecoveryConfig(
+        mode="anchor",
+        window=1,
+        initial_interval=0,
+        anchor_steps=60,
+        anchor_grasp_offset=(-0.07, 0.0, 0.0),
+        anchor_held_offset=held_offset,
+        anchor_look_steps=0,  # the memory's heads are scripted here
+        anchor_object="memory",
+        anchor_goal="memory",
+    ).for_task(True, True, env_class.object_shape.rest_height, max(env_class.object_shape.half_size))
+    controller = IntrospectiveController(
+        policy, settings, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS, state_stats=STATE_IDENTITY
+    )
+    start_object = env.object_position.copy()
+    controller.reset()
+    success = False
+    for _ in range(150):
+        observation, _, terminated, _, info = env.step(controller.select_action(to_batch(observation))[0])
+        success = success or bool(info["is_success"])
+        if terminated:
+            break
+    env.close()
+    event = controller.traces[-1].events[0][0]
+    assert event["step"] == 10 and event["holding"] is False
+    grasp_point = start_object + [-0.07, 0.0, 0.0]  # the stick's grasp point, 3 cm in from its near end
+    np.testing.assert_allclose(event["target"][:2], grasp_point[:2], atol=1e-4)
+    if held_offset == "grasped":
+        assert success, "the carry by the grasped offset did not bring the far end onto the target"
+    else:
+        assert not success, "the carry by a belief 2-4 cm off should miss the target"
 
 
 @pytest.mark.parametrize("holds", [True, False])
@@ -348,7 +404,9 @@ def test_anchor_refuses_a_policy_without_the_goal_head() -> None:
         anchor_controller(policy)
 
 
-@pytest.mark.parametrize("mode", [m for m in RECOVERY_MODES if m != "none"] + ["anchor_look", "anchor_frame"])
+@pytest.mark.parametrize(
+    "mode", [m for m in RECOVERY_MODES if m != "none"] + ["anchor_look", "anchor_frame", "anchor_held"]
+)
 def test_recovery_reads_nothing_of_the_simulator_state(mode: str) -> None:
     """Each mode acts the same when the object's true position is withheld from the observation (NaN):
     it reads only the camera, the proprioception, the grip point's position and the policy's heads."""
@@ -364,7 +422,16 @@ def test_recovery_reads_nothing_of_the_simulator_state(mode: str) -> None:
             short["anchor_look_steps"] = 2
         if mode == "anchor_frame":  # the frame position head's reading of the object, after a look
             short.update(anchor_look_steps=2, anchor_object="frame")
-        base_mode = mode.removesuffix("_look").removesuffix("_frame")
+        if mode == "anchor_held":  # pick_reach's: the frame head's object and goal, carried by the grasp
+            short.update(
+                anchor_look_steps=2,
+                anchor_object="frame",
+                anchor_goal="frame",
+                anchor_release=False,
+                anchor_held_offset="grasped",
+                anchor_carry_memory="reset",
+            )
+        base_mode = mode.removesuffix("_look").removesuffix("_frame").removesuffix("_held")
         cfg = RecoveryConfig(mode=base_mode, window=1, initial_interval=0, **short)
         controller = IntrospectiveController(
             policy, cfg, threshold=0.0, window=1, env_state_stats=IDENTITY_STATS, state_stats=STATE_IDENTITY
@@ -390,27 +457,42 @@ def test_recovery_reads_nothing_of_the_simulator_state(mode: str) -> None:
 
 def test_anchor_takes_its_object_handling_from_the_task_unless_given() -> None:
     """push's cube is never picked up (no re-grasp; a look from the start pose and the frame head's
-    reading of where it is); pick_reach's stick is held at the end (no release)."""
-    for task, grasp, release, look, source, max_offset in [
-        ("push", False, True, PUSHED_OBJECT_LOOK_STEPS, "frame", 0.05),
-        ("pick_place", True, True, 0, "memory", 0.05),
-        ("pick_reach", True, False, 0, "memory", 0.125),  # the stick is held 7 cm from its centre
+    reading of where it is); pick_reach's stick is held at the end (no release, the memory kept after the
+    carry; a look and the frame head's reading of the stick and of the goal)."""
+    for task, grasp, release, look, source, goal, carry_memory, max_offset in [
+        ("push", False, True, LOOK_STEPS, "frame", "memory", "reset", 0.05),
+        ("pick_place", True, True, 0, "memory", "memory", "reset", 0.05),
+        ("pick_reach", True, False, LOOK_STEPS, "frame", "frame", "keep", 0.125),  # held 7 cm off centre
     ]:
-        env_class = task_env_class(task)
-        settings = RecoveryConfig(mode="anchor").for_task(
-            env_class.object_picked,
-            env_class.object_held_at_end,
-            env_class.object_shape.rest_height,
-            max(env_class.object_shape.half_size),
-        )
+        settings = RecoveryConfig(mode="anchor").for_task_class(task_env_class(task))
         assert (settings.anchor_grasp, settings.anchor_release) == (grasp, release), task
         assert (settings.anchor_look_steps, settings.anchor_object) == (look, source), task
+        assert (settings.anchor_goal, settings.anchor_carry_memory) == (goal, carry_memory), task
         assert settings.anchor_max_held_offset == pytest.approx(max_offset), task
+        assert settings.anchor_held_offset == "believed", task
     given = RecoveryConfig(
-        mode="anchor", anchor_grasp=True, anchor_release=False, anchor_look_steps=0, anchor_object="memory"
+        mode="anchor",
+        anchor_grasp=True,
+        anchor_release=False,
+        anchor_look_steps=0,
+        anchor_object="memory",
+        anchor_goal="frame",
+        anchor_carry_memory="reset",
     ).for_task(False, False)
     assert (given.anchor_grasp, given.anchor_release) == (True, False)
     assert (given.anchor_look_steps, given.anchor_object) == (0, "memory")
+    assert (given.anchor_goal, given.anchor_carry_memory) == ("frame", "reset")
+    for name, value, message in [
+        ("anchor_goal", "camera", "anchor_goal must be one of"),
+        ("anchor_held_offset", "exact", "anchor_held_offset must be one of"),
+        ("anchor_carry_memory", "forget", "anchor_carry_memory must be one of"),
+        ("anchor_grasp_offset", (0.3, 0.0, 0.0), "anchor_grasp_offset is the grasp point's offset"),
+        ("anchor_grasp_offset", (0.0, 0.0), "anchor_grasp_offset is the grasp point's offset"),
+    ]:
+        with pytest.raises(ValueError, match=message):
+            RecoveryConfig(mode="anchor", **{name: value})
+        with pytest.raises(ValueError, match="no effect with --recovery.mode=rand"):
+            RecoveryConfig(mode="rand", **{name: "frame" if name == "anchor_goal" else value})
     assert (
         RecoveryConfig(mode="anchor", anchor_max_held_offset=0.2)
         .for_task(True, True, 0.4, 0.1)
@@ -457,7 +539,39 @@ def test_anchor_reads_the_object_from_the_head_it_is_told(source: str) -> None:
     assert not any(x == pytest.approx(other[0]) for x in xs)
 
 
-def test_anchor_on_the_frame_head_refuses_a_policy_without_it() -> None:
+@pytest.mark.parametrize("source", ["memory", "frame"])
+def test_anchor_carries_to_the_goal_of_the_head_it_is_told(source: str) -> None:
+    """The goal head on the memory believes the goal in one place, the frame position head in another (as
+    on pick_reach's failures, where the memory's goal sat a median 2.4 cm off and the frame head's 0.9 cm):
+    a held object is carried to the goal the head `anchor_goal` names believed at its least uncertain
+    steps."""
+    memory_goal, frame_goal = np.array([1.20, 0.80, 0.425]), np.array([1.30, 0.90, 0.425])
+    stream = [0.05] * 10 + [1.0] + [0.0] * 100  # fires at step 10
+    policy = scripted_policy(
+        stream, move=[0.0, 0.0, 0.0], gripper=GRIPPER_CLOSE, frame_position_head=True, **WITH_GOAL_HEAD
+    )
+    start = np.array([1.342, 0.749, 0.535])
+    believing(policy, [list(start)] * 200, [list(memory_goal)] * 200)  # the object in the hand
+    encode = policy.net.encode_with_positions
+
+    def frame_reading(images: Tensor, state: Tensor) -> tuple[Tensor, Tensor]:
+        s, positions = encode(images, state)
+        positions = positions.clone()
+        positions[:, 6:9] = torch.as_tensor(frame_goal, dtype=positions.dtype)  # identity statistics
+        return s, positions
+
+    policy.net.encode_with_positions = frame_reading
+    controller = anchor_controller(policy, anchor_release=False, anchor_goal=source)
+    controller.finger_joints = lambda batch: np.array([[0.024, 0.024]])  # the fingers rest on the cube
+    grips, _ = run_episode(controller, steps=12)
+    event = controller.traces[-1].events[0][0]
+    assert event["step"] == 10 and event["holding"] is True
+    goal = memory_goal if source == "memory" else frame_goal
+    np.testing.assert_allclose(event["target"], goal - (start - grips[10]), atol=1e-4)
+
+
+@pytest.mark.parametrize("name", ["anchor_object", "anchor_goal"])
+def test_anchor_on_the_frame_head_refuses_a_policy_without_it(name: str) -> None:
     policy = scripted_policy([0.0], move=[0.0, 0.0, 0.0], frame_position_head=False, **WITH_GOAL_HEAD)
-    with pytest.raises(ValueError, match="anchor_object=frame reads the policy's frame position head"):
-        anchor_controller(policy, anchor_object="frame")
+    with pytest.raises(ValueError, match=f"{name}=frame reads the policy's frame position head"):
+        anchor_controller(policy, **{name: "frame"})
