@@ -22,8 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lerobot_ivmc.envs import make_task_env
-from lerobot_ivmc.experts import make_expert
+from lerobot_ivmc.experts import demo_end_object
 from lerobot_ivmc.recovery import controller as controller_module
 from lerobot_ivmc.recovery.config import ANCHOR_GOAL_STEPS
 from lerobot_ivmc.scripts.lerobot_ivmc_eval import eval_main
@@ -52,19 +51,6 @@ def record_goal_beliefs() -> dict[str, list]:
     return store
 
 
-def demo_end(task: str, split: str, seed: int, steps: int) -> np.ndarray:
-    """The object's position at the end of the scripted demo of scene `seed`: the goal head's label, (3,)."""
-    env = make_task_env(task, obs_type="state", split=split, terminate_on_success=False)
-    env.reset(seed=seed)
-    expert = make_expert(env)
-    expert.reset()
-    for _ in range(steps):
-        env.step(expert.act())
-    end = env.object_position.copy()
-    env.close()
-    return end
-
-
 def anchored_errors(store: dict, info: dict, step: int, batch_size: int, steps: int) -> list[dict]:
     """Per episode: success and each head's anchored goal error (cm) against the demo's end."""
     batches = np.asarray(store["batch"])
@@ -76,7 +62,7 @@ def anchored_errors(store: dict, info: dict, step: int, batch_size: int, steps: 
         u = np.stack(store["uncertainty"])[at][:, row]
         last = min(step, len(u) - 1)
         least = np.argsort(u[: last + 1], kind="stable")[:ANCHOR_GOAL_STEPS]
-        label = demo_end(run["task"], run["split"], episode["seed"], steps)
+        label = demo_end_object(run["task"], episode["seed"], run["split"], steps)
         errors = {}
         for head in ("memory", "frame"):
             goal = np.stack(store[head])[at][:, row][least].mean(axis=0)

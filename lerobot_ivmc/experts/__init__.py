@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from lerobot_ivmc.envs import check_task
+import numpy as np
+
+from lerobot_ivmc.envs import check_task, make_task_env
 from lerobot_ivmc.envs.fetch_env import IvmcFetchEnv
 from lerobot_ivmc.experts.pick_place import PickPlaceExpert
 from lerobot_ivmc.experts.pick_reach import PickReachExpert
@@ -21,4 +23,15 @@ def make_expert(env: IvmcFetchEnv) -> WaypointExpert:
     return EXPERTS[check_task(env.unwrapped.task)](env.unwrapped)
 
 
-__all__ = ["EXPERTS", "Waypoint", "WaypointExpert", "make_expert", "run_expert_episode"]
+def demo_end_object(task: str, seed: int, split: str = "train", steps: int = 200) -> np.ndarray:
+    """Where the object is at the end of the scripted demo of `split`'s scene `seed` after `steps` steps
+    (`lite`'s 200): the goal head's label, (3,) metres."""
+    env = make_task_env(task, obs_type="state", split=split, terminate_on_success=False)
+    try:
+        run_expert_episode(env, make_expert(env), seed=seed, max_steps=steps)
+        return env.object_position.copy()
+    finally:
+        env.close()
+
+
+__all__ = ["EXPERTS", "Waypoint", "WaypointExpert", "demo_end_object", "make_expert", "run_expert_episode"]

@@ -219,8 +219,18 @@ class RecoveryConfig:
         )
 
     def __post_init__(self) -> None:
-        if self.mode not in RECOVERY_MODES:
-            raise ValueError(f"--recovery.mode must be one of {RECOVERY_MODES}, got {self.mode!r}.")
+        for name, allowed in (
+            ("mode", RECOVERY_MODES),
+            ("min_unc_memory", MIN_UNC_MEMORY),
+            ("min_unc_choice", MIN_UNC_CHOICE),
+            ("anchor_object", ANCHOR_OBJECT),
+            ("anchor_goal", ANCHOR_GOAL),
+            ("anchor_held_offset", ANCHOR_HELD_OFFSET),
+            ("anchor_carry_memory", ANCHOR_CARRY_MEMORY),
+        ):
+            value = getattr(self, name)
+            if value is not None and value not in allowed:  # None: from the task (`for_task`)
+                raise ValueError(f"--recovery.{name} must be one of {allowed}, got {value!r}.")
         if self.threshold is not None and not math.isfinite(self.threshold):
             raise ValueError(
                 f"--recovery.threshold must be a finite number, got {self.threshold}: a NaN threshold never "
@@ -249,10 +259,6 @@ class RecoveryConfig:
                 f"--recovery.candidate_noise is a standard deviation in action units, in [0, 1]; got "
                 f"{self.candidate_noise}."
             )
-        if self.min_unc_memory not in MIN_UNC_MEMORY:
-            raise ValueError(
-                f"--recovery.min_unc_memory must be one of {MIN_UNC_MEMORY}, got {self.min_unc_memory!r}."
-            )
         set_here = [
             f.name
             for f in fields(self)
@@ -263,28 +269,10 @@ class RecoveryConfig:
                 f"--recovery.{', '.join(set_here)} set the anchor mode; they have no effect with "
                 f"--recovery.mode={self.mode}: drop them or use --recovery.mode=anchor."
             )
-        if self.anchor_object is not None and self.anchor_object not in ANCHOR_OBJECT:
-            raise ValueError(
-                f"--recovery.anchor_object must be one of {ANCHOR_OBJECT}, got {self.anchor_object!r}."
-            )
         if self.anchor_max_held_offset is not None and not 0 <= self.anchor_max_held_offset < math.inf:
             raise ValueError(
                 "--recovery.anchor_max_held_offset is a distance in metres >= 0, got "
                 f"{self.anchor_max_held_offset}."
-            )
-        if self.anchor_goal is not None and self.anchor_goal not in ANCHOR_GOAL:
-            raise ValueError(
-                f"--recovery.anchor_goal must be one of {ANCHOR_GOAL}, got {self.anchor_goal!r}."
-            )
-        if self.anchor_held_offset not in ANCHOR_HELD_OFFSET:
-            raise ValueError(
-                f"--recovery.anchor_held_offset must be one of {ANCHOR_HELD_OFFSET}, got "
-                f"{self.anchor_held_offset!r}."
-            )
-        if self.anchor_carry_memory is not None and self.anchor_carry_memory not in ANCHOR_CARRY_MEMORY:
-            raise ValueError(
-                f"--recovery.anchor_carry_memory must be one of {ANCHOR_CARRY_MEMORY}, got "
-                f"{self.anchor_carry_memory!r}."
             )
         if len(self.anchor_grasp_offset) != 3 or not all(
             math.isfinite(v) and abs(v) <= MAX_GRASP_OFFSET for v in self.anchor_grasp_offset
@@ -302,10 +290,6 @@ class RecoveryConfig:
             raise ValueError(
                 f"--recovery.anchor_rest_height is a height in metres (or nan: the believed one), got "
                 f"{self.anchor_rest_height}."
-            )
-        if self.min_unc_choice not in MIN_UNC_CHOICE:
-            raise ValueError(
-                f"--recovery.min_unc_choice must be one of {MIN_UNC_CHOICE}, got {self.min_unc_choice!r}."
             )
         if self.min_unc_choice != "foresight" and self.mode != "min_unc":
             raise ValueError(

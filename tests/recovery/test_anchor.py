@@ -16,7 +16,7 @@ from torch import Tensor
 
 from lerobot_ivmc.envs import make_task_env, task_env_class
 from lerobot_ivmc.envs.fetch_env import GRIPPER_CLOSE, GRIPPER_OPEN
-from lerobot_ivmc.experts import make_expert
+from lerobot_ivmc.experts import demo_end_object, make_expert
 from lerobot_ivmc.policies import BVMCConfig
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
 from lerobot_ivmc.recovery.anchor import (
@@ -91,6 +91,20 @@ def believing(
         return (*outputs[:3], obj, goal)
 
     policy.net.decode = scripted
+
+
+def frame_head_reads(policy: BVMCPolicy, part: slice, position: np.ndarray) -> None:
+    """Patch the frame position head to read `position` (raw metres, as the identity statistics read them)
+    in `part` of its outputs (the object 3:6, the goal 6:9) at every step."""
+    encode = policy.net.encode_with_positions
+
+    def frame_reading(images: Tensor, state: Tensor) -> tuple[Tensor, Tensor]:
+        s, positions = encode(images, state)
+        positions = positions.clone()
+        positions[:, part] = torch.as_tensor(position, dtype=positions.dtype)
+        return s, positions
+
+    policy.net.encode_with_positions = frame_reading
 
 
 def anchor_controller(policy: BVMCPolicy, **recovery) -> IntrospectiveController:
@@ -169,20 +183,6 @@ def test_anchor_holding_carries_to_the_goal_believed_at_the_least_uncertain_step
         assert at_goal == carrying[-1] + 1 and changes == []
     with pytest.raises(ValueError, match="no effect with --recovery.mode=init"):
         RecoveryConfig(mode="init", anchor_release=False)
-
-
-def demo_end_object(task: str, seed: int, steps: int = 200) -> np.ndarray:
-    """Where the object is at the end of the scripted demo of scene `seed` (`lite`'s 200 steps): the goal
-    head's label."""
-    env = make_task_env(task, image_size=64, terminate_on_success=False)
-    env.reset(seed=seed)
-    expert = make_expert(env)
-    expert.reset()
-    for _ in range(steps):
-        env.step(expert.act())
-    end = env.object_position.copy()
-    env.close()
-    return end
 
 
 @pytest.mark.parametrize("expert_steps", [0, 30])
@@ -491,8 +491,14 @@ def test_anchor_takes_its_object_handling_from_the_task_unless_given() -> None:
     ]:
         with pytest.raises(ValueError, match=message):
             RecoveryConfig(mode="anchor", **{name: value})
-        with pytest.raises(ValueError, match="no effect with --recovery.mode=rand"):
-            RecoveryConfig(mode="rand", **{name: "frame" if name == "anchor_goal" else value})
+    for name, value in [
+        ("anchor_goal", "frame"),
+        ("anchor_held_offset", "grasped"),
+        ("anchor_carry_memory", "reset"),
+        ("anchor_grasp_offset", (-0.07, 0.0, 0.0)),
+    ]:
+        with pytest.raises(ValueError, match=f"{name} set the anchor mode"):
+            RecoveryConfig(mode="rand", **{name: value})
     assert (
         RecoveryConfig(mode="anchor", anchor_max_held_offset=0.2)
         .for_task(True, True, 0.4, 0.1)
@@ -516,15 +522,7 @@ def test_anchor_reads_the_object_from_the_head_it_is_told(source: str) -> None:
     stream = [0.05] * 10 + [1.0] + [0.0] * 100  # fires at step 10
     policy = scripted_policy(stream, move=[0.0, 0.0, 0.0], frame_position_head=True, **WITH_GOAL_HEAD)
     believing(policy, [list(memory_object)] * 200, [[1.45, 1.00, 0.425]] * 200)
-    encode = policy.net.encode_with_positions
-
-    def frame_reading(images: Tensor, state: Tensor) -> tuple[Tensor, Tensor]:
-        s, positions = encode(images, state)
-        positions = positions.clone()
-        positions[:, 3:6] = torch.as_tensor(frame_object, dtype=positions.dtype)  # identity statistics
-        return s, positions
-
-    policy.net.encode_with_positions = frame_reading
+    frame_head_reads(policy, slice(3, 6), frame_object)
     controller = anchor_controller(policy, anchor_grasp=False, anchor_object=source)
     run_episode(controller, steps=12)
     believed = memory_object if source == "memory" else frame_object
@@ -552,15 +550,7 @@ def test_anchor_carries_to_the_goal_of_the_head_it_is_told(source: str) -> None:
     )
     start = np.array([1.342, 0.749, 0.535])
     believing(policy, [list(start)] * 200, [list(memory_goal)] * 200)  # the object in the hand
-    encode = policy.net.encode_with_positions
-
-    def frame_reading(images: Tensor, state: Tensor) -> tuple[Tensor, Tensor]:
-        s, positions = encode(images, state)
-        positions = positions.clone()
-        positions[:, 6:9] = torch.as_tensor(frame_goal, dtype=positions.dtype)  # identity statistics
-        return s, positions
-
-    policy.net.encode_with_positions = frame_reading
+    frame_head_reads(policy, slice(6, 9), frame_goal)
     controller = anchor_controller(policy, anchor_release=False, anchor_goal=source)
     controller.finger_joints = lambda batch: np.array([[0.024, 0.024]])  # the fingers rest on the cube
     grips, _ = run_episode(controller, steps=12)
