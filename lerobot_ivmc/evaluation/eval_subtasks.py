@@ -235,7 +235,7 @@ def add_recovery_results(
         "threshold": threshold,
         "threshold_source": source,
         "window": window,
-        "settings": asdict(cfg.recovery),
+        "settings": asdict(cfg.recovery.for_task_class(task_env_class(cfg.env.task))),  # as they acted
         "num_recoveries": sum(len(e["events"]) for e in episodes),
         "episodes_with_recovery": sum(bool(e["events"]) for e in episodes),
         "traces": TRACES_FILE,

@@ -102,10 +102,20 @@ def test_threshold_is_the_argmax_of_the_validation_episodes(
     assert not (tiny_foresight / "pretrained_model" / THRESHOLD_FILE).exists()  # input untouched
 
 
-@pytest.mark.parametrize("mode", ["none", "rand", "init", "min_unc"])
-def test_each_mode_runs_end_to_end(mode: str, tiny_recovery_checkpoint: Path, tmp_path: Path) -> None:
-    out = tmp_path / mode
-    flags = [f"--recovery.mode={mode}", "--recovery.recovery_steps=5", "--recovery.max_videos=1"]
+@pytest.mark.parametrize("variant", ["none", "rand", "init", "min_unc", "anchor", "anchor_frame"])
+def test_each_mode_runs_end_to_end(variant: str, tiny_recovery_checkpoint: Path, tmp_path: Path) -> None:
+    """Every mode on a trained tiny bvmc in the real env; anchor also as pick_reach runs it (a look, the
+    object and the goal read by the frame position head)."""
+    out = tmp_path / variant
+    mode = variant.removesuffix("_frame")
+    flags = [f"--recovery.mode={mode}", "--recovery.max_videos=1"]
+    flags.append("--recovery.anchor_steps=5" if mode == "anchor" else "--recovery.recovery_steps=5")
+    if variant == "anchor_frame":
+        flags += [
+            "--recovery.anchor_look_steps=2",
+            "--recovery.anchor_object=frame",
+            "--recovery.anchor_goal=frame",
+        ]
     if mode != "none":  # a zero threshold and short interval make sure recoveries happen in 30 steps
         flags += ["--recovery.threshold=0.0", "--recovery.initial_interval=2"]
     evaluate(tiny_recovery_checkpoint, out, *flags)
@@ -124,6 +134,13 @@ def test_each_mode_runs_end_to_end(mode: str, tiny_recovery_checkpoint: Path, tm
     else:
         assert info["recovery"]["num_recoveries"] > 0
         assert all(event["mode"] == mode for e in episodes for event in e["recoveries"])
+        settings = info["recovery"]["settings"]  # as they acted: anchor's resolved for pick_place's cube
+        if mode == "anchor":
+            frame = variant == "anchor_frame"
+            expected = ("frame", "frame") if frame else ("memory", "memory")
+            assert (settings["anchor_object"], settings["anchor_goal"]) == expected
+            assert settings["anchor_release"] is True and settings["anchor_look_steps"] == (2 if frame else 0)
+            assert any("look_steps" in event for e in episodes for event in e["recoveries"]) is frame
         videos = list((out / "recovery_videos").glob("*.mp4"))
         assert len(videos) == 1
         # One frame per step: the 64-px camera image the policy acted on, enlarged 4x, above the trace.
