@@ -27,8 +27,8 @@ ANCHOR_GOAL_STEPS = 30
 # and the look of 6 steps with the frame head rescued the most (docs/RESULTS.md, "push: the frame head").
 # The same for an object held at the end (pick_reach's stick), and the goal read from the frame head too: on
 # its validation failures after a missed grasp the memory believed the stick in the empty hand, and the
-# memory's goal sat a median 2.6 cm from the demos' end, the frame head's 1.1 cm (docs/RESULTS.md,
-# "pick_reach: the frame head").
+# memory's goal sat a median 2.2-3.1 cm from the demos' end per training seed, the frame head's 1.0-1.5 cm
+# (docs/RESULTS.md, "pick_reach: the frame head").
 LOOK_STEPS = 6
 # A carry corrects the believed offset of a held object's centre from the grip point up to the object's
 # longest half-size plus this margin (metres): 5 cm for pick_place's cube, 12.5 cm for pick_reach's stick,
@@ -112,8 +112,9 @@ class RecoveryConfig:
         anchor_goal: which head the anchored goal is read from: "memory", the goal head on the LSTM's state;
             "frame" (a policy trained with the frame position head and the goal head): that head's reading of
             each frame alone. None: from the task, "frame" for an object held at the end (pick_reach's
-            validation failures: the frame head's 30-step goal a median 1.1 cm from the demos' end, 98%
-            within the target's 3 cm; the memory's 2.6 cm, 57%), else "memory".
+            validation failures, three training seeds: the frame head's 30-step goal a median 1.0-1.5 cm
+            from the demos' end, 95-100% within the target's 3 cm; the memory's 2.2-3.1 cm, 43-69%), else
+            "memory".
         anchor_grasp_offset: where anchor closes the fingers on an object it re-grasps, from the object's
             believed centre (metres, world x, y, z). The centre by default: on pick_reach's validation
             failures a re-grasp at the demos' grasp point (7 cm toward the stick's near end,
