@@ -15,7 +15,7 @@ from pathlib import Path
 from lerobot_ivmc.datasets.record_config import RecordDemosConfig
 from lerobot_ivmc.envs import TASKS, check_demo_episode_steps
 from lerobot_ivmc.policies.vmc.configuration_vmc import VMCConfig
-from lerobot_ivmc.recovery.config import RECOVERY_MODES
+from lerobot_ivmc.recovery.config import RANDOM_STREAMS, RECOVERY_MODES
 from lerobot_ivmc.recovery.foresight_training import ForesightConfig
 from lerobot_ivmc.recovery.threshold import THRESHOLD_METHODS, conformal_min_successes
 
@@ -209,6 +209,10 @@ class PipelineConfig:
             (`--eval.use_async_envs`; the same episodes as in one process). Off by default: on 2 cores, 10
             sub-env processes evaluated 100 pick_place episodes in 118.7 s against 107.2 s in one process
             (benchmarks/bench_eval.py, README "Benchmarks"); machines with more cores than that gain.
+        random_streams: the BVMC rollouts' random draws (`--recovery.random_streams` of the threshold, the
+            BVMC rows, Fig. 3 and the data-budget probes): "batch" (the default, as the recorded studies
+            drew them) or "episode" (each episode its own streams: a recovery row acts as plain BVMC on the
+            same scene until its first trigger, and results do not depend on the batch size).
     """
 
     task: str = ""
@@ -227,6 +231,7 @@ class PipelineConfig:
     regime: RegimeConfig = field(default_factory=RegimeConfig)
     executor: ExecutorConfig = field(default_factory=ExecutorConfig)
     async_envs: bool = False
+    random_streams: str = "batch"
 
     def __post_init__(self) -> None:
         self.validate()
@@ -239,6 +244,10 @@ class PipelineConfig:
         if bad_fc or not self.train.num_fc_layers:
             raise ValueError(
                 f"--train.num_fc_layers must list #fc values from (1, 2), got {self.train.num_fc_layers}."
+            )
+        if self.random_streams not in RANDOM_STREAMS:
+            raise ValueError(
+                f"--random_streams must be one of {RANDOM_STREAMS}, got {self.random_streams!r}."
             )
         bad_modes = [m for m in self.recovery_modes if m not in RECOVERY_MODES]
         if bad_modes or not self.recovery_modes:

@@ -91,17 +91,19 @@ def probe_stages(cfg: PipelineConfig) -> list[Stage]:
     training = find_stage(stages, train_stage_name("bvmc", fc))
     out = cfg.root.resolve() / PROBE_STAGE
     r = cfg.regime
+    chain = chain_flags(cfg)
     probe = eval_stage(
         PROBE_STAGE,
         training.output / LAST_PRETRAINED_MODEL,
         out,
-        chain_flags(cfg).eval_env_flags,
+        chain.eval_env_flags,
         r.n_episodes,
         r.batch_size,
         f"--seed={cfg.seed}",
         None,
         training.name,
         split="val",
+        recovery_flags=chain.bvmc_flags,
     )
     return [find_stage(stages, COLLECT_STAGE), training, probe]
 

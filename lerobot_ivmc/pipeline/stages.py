@@ -218,6 +218,7 @@ class ChainFlags:
     env_flags: list[str]
     eval_env_flags: list[str]
     async_flag: str
+    bvmc_flags: list[str]  # of every stage that rolls the bvmc out under the recovery controller
 
 
 def chain_flags(cfg: PipelineConfig) -> ChainFlags:
@@ -233,9 +234,11 @@ def chain_flags(cfg: PipelineConfig) -> ChainFlags:
     # Evaluation-like stages: sub-envs in parallel processes or not; no LeRobot eval videos (never read).
     async_flag = f"--eval.use_async_envs={str(cfg.async_envs).lower()}"
     eval_env_flags = [*env_flags, async_flag, "--max_episodes_rendered=0"]
+    # Only when not the default, so that the studies made with a batch's draws keep their fingerprints.
+    streams = [] if cfg.random_streams == "batch" else [f"--recovery.random_streams={cfg.random_streams}"]
     data = cfg.root.resolve() / "data"
     return ChainFlags(
-        data, c.dataset.repo_id or f"local/ivmc_{cfg.task}", env_flags, eval_env_flags, async_flag
+        data, c.dataset.repo_id or f"local/ivmc_{cfg.task}", env_flags, eval_env_flags, async_flag, streams
     )
 
 
@@ -310,6 +313,7 @@ def threshold_stage(
             f"--eval.batch_size={th.batch_size}",
             f"--method={th.method}",
             f"--alpha={th.alpha}",
+            *chain.bvmc_flags,
             f"--seed={cfg.seed}",
             f"--output_dir={threshold}",
         ],
@@ -357,7 +361,7 @@ def row_stages(
                 seed,
                 mode,
                 source,
-                recovery_flags=anchor_flags if mode == "anchor" else [],
+                recovery_flags=bvmc_row_flags(mode, chain, anchor_flags),
                 task=cfg.task,
             )
         )
@@ -376,9 +380,18 @@ def row_stages(
                 seed,
                 "none",
                 threshold.name,
+                recovery_flags=chain.bvmc_flags,
             )
         )
     return stages
+
+
+def bvmc_row_flags(mode: str | None, chain: ChainFlags, anchor_flags: list[str]) -> list[str]:
+    """The recovery flags of a Table I row: none for VMC's (`mode` None), the chain's for a BVMC row, and
+    `anchor_flags` for anchor's."""
+    if mode is None:
+        return []
+    return [*chain.bvmc_flags, *(anchor_flags if mode == "anchor" else [])]
 
 
 def detect_stage(

@@ -15,6 +15,7 @@ ANCHOR_OBJECT = ("memory", "frame")
 ANCHOR_GOAL = ("memory", "frame")
 ANCHOR_HELD_OFFSET = ("believed", "grasped")
 ANCHOR_CARRY_MEMORY = ("keep", "reset")
+RANDOM_STREAMS = ("batch", "episode")
 # anchor's goal is the mean of the goals believed at this many least uncertain steps by default. One step's
 # belief is noisy (pick_place's validation failures: 50% of single-step anchors within the target's 3 cm, 67%
 # of 10-step means); the 10 least uncertain steps can all fall after the goal belief drifted toward the
@@ -138,6 +139,14 @@ class RecoveryConfig:
             is pushed, "memory" for one that is picked up (where the frame head placed it worse).
         max_videos: at most this many videos of episodes with a recovery, the uncertainty trace drawn under
             the frames (frames are rendered for every episode until they are found; 0 disables).
+        random_streams: where a rollout's random draws come from (its Monte Carlo dropout masks, and rand's,
+            init's and min_unc's draws). "batch" (the studies' so far): the masks of every rollout of a batch
+            from torch's global generator, so an episode's samples depend on the batch size and, after the
+            first batch, on how many steps the earlier batches took (which recovery changes); the other
+            draws per (seed, batch, row). "episode": every episode its own streams, seeded by (seed,
+            episode index): the same episode acts the same whatever the batch size, and a recovery row
+            acts exactly as the row without recovery on the same scenes until its own first trigger, so
+            the rescued / lost counts hold nothing but the recovery.
     """
 
     mode: str = "none"
@@ -167,6 +176,7 @@ class RecoveryConfig:
     anchor_held_offset: str = "believed"
     anchor_carry_memory: str | None = None
     max_videos: int = 4
+    random_streams: str = "batch"
 
     def for_task_class(self, task_class: type) -> RecoveryConfig:
         """`for_task` with the object handling and geometry of a task's env class (`IvmcFetchEnv`)."""
@@ -228,6 +238,7 @@ class RecoveryConfig:
             ("anchor_goal", ANCHOR_GOAL),
             ("anchor_held_offset", ANCHOR_HELD_OFFSET),
             ("anchor_carry_memory", ANCHOR_CARRY_MEMORY),
+            ("random_streams", RANDOM_STREAMS),
         ):
             value = getattr(self, name)
             if value is not None and value not in allowed:  # None: from the task (`for_task`)

@@ -84,6 +84,10 @@ class StepObserver(Protocol):
         """Called once a batch of episodes is over, with its trace (`traces[batch_index]`)."""
 
 
+# The purposes of a rollout's random streams (`IntrospectiveController._stream`).
+DRAWS, MASKS = 0, 1
+
+
 def memory_row(memory: tuple[Tensor, ...], row: int) -> tuple[Tensor, ...]:
     """One rollout's part of a batched policy memory (copies)."""
     return tuple(t[row].clone() for t in memory)
@@ -106,7 +110,8 @@ class IntrospectiveController(BVMCRolloutWrapper):
         env_state_stats: (mean, std) of `observation.environment_state`, to read the grip point's position
             from the normalised observation (the first three entries).
         seed: seeds the random draws of rand and init, and min_unc's candidate noise (each rollout its own
-            streams, `_draws`).
+            streams, `_draws`), and with `recovery.random_streams="episode"` each episode's Monte Carlo
+            masks.
         observers: shown every step's observation batch and every finished batch's trace.
         state_stats: (mean, std) of `observation.state`, to read the finger joints (its last two entries);
             required by `anchor`, which decides by them whether the robot holds the object.
@@ -160,6 +165,8 @@ class IntrospectiveController(BVMCRolloutWrapper):
         self.env_state_mean, self.env_state_std = env_state_stats
         self.seed = seed
         self._row_draws: dict[int, tuple[np.random.Generator, torch.Generator]] = {}
+        self._mask_draws: list[torch.Generator] = []
+        self._episodes_begun = 0  # episodes of the batches begun so far
         self.candidate_noise = (
             recovery.candidate_noise
             if recovery.candidate_noise is not None
@@ -184,6 +191,8 @@ class IntrospectiveController(BVMCRolloutWrapper):
     # ---------------------------------------------------------------------------------------- Algorithm 1
     def _start_batch(self, batch_size: int, grip: np.ndarray) -> None:
         self._batch_size = batch_size
+        self._first_episode = self._episodes_begun
+        self._episodes_begun += batch_size
         self.trigger = RecoveryTrigger(
             batch_size,
             self.threshold,
@@ -201,15 +210,37 @@ class IntrospectiveController(BVMCRolloutWrapper):
         self.step = 0
         self._row_draws = {}
         self.traces.append(BatchTrace(events=[[] for _ in range(batch_size)]))
+        if self.recovery.random_streams == "episode":
+            self._mask_draws = [
+                torch.Generator().manual_seed(int(self._stream(row, MASKS).generate_state(1)[0]))
+                for row in range(batch_size)
+            ]
+
+    def _stream(self, row: int, purpose: int) -> np.random.SeedSequence:
+        """The seed sequence of rollout `row`'s draws for `purpose` (`DRAWS` or `MASKS`): by (seed, batch,
+        row) with `random_streams="batch"`, by (seed, episode index) with "episode"."""
+        if self.recovery.random_streams == "episode":
+            return np.random.SeedSequence([self.seed, self._first_episode + row], spawn_key=(purpose,))
+        return np.random.SeedSequence([self.seed, max(len(self.traces) - 1, 0), row])
 
     def _draws(self, row: int) -> tuple[np.random.Generator, torch.Generator]:
-        """Rollout `row`'s own random streams (numpy, torch) in the batch under way, seeded by (seed, batch,
-        row): what one rollout draws does not depend on whether or when the others recover."""
+        """Rollout `row`'s own random streams (numpy, torch) for its recovery: what one rollout draws does
+        not depend on whether or when the others recover."""
         if row not in self._row_draws:
-            stream = np.random.SeedSequence([self.seed, max(len(self.traces) - 1, 0), row])
+            stream = self._stream(row, DRAWS)
             torch_draws = torch.Generator().manual_seed(int(stream.generate_state(1)[0]))
             self._row_draws[row] = (np.random.default_rng(stream), torch_draws)
         return self._row_draws[row]
+
+    def _mask_noise(self) -> list[Tensor] | None:
+        """This step's uniform noise of the Monte Carlo masks, each dropout layer's (B, S, K_l), every row
+        from its episode's own stream; None with `random_streams="batch"` (torch's global generator)."""
+        if self.recovery.random_streams != "episode":
+            return None
+        shapes = self.policy.net.head.noise_shapes(1, self.policy.config.num_samples)
+        device = self.policy.net.decoder.weight.device
+        rows = self._mask_draws
+        return [torch.cat([torch.rand(shape, generator=g) for g in rows]).to(device) for shape in shapes]
 
     def grip_positions(self, batch: dict[str, Tensor]) -> np.ndarray:
         """(B, 3) world positions of the grip point, from the normalised environment state."""
@@ -397,7 +428,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
         memory_before = self.policy._memory if keep_fifo else None
         if keep_fifo and memory_before is None:
             memory_before = self.policy.initial_memory(batch_size)
-        prediction = self.policy.sample(batch)
+        prediction = self.policy.sample(batch, noise=self._mask_noise())
         uncertainty = prediction.uncertainty.float().cpu().numpy()
         normal = np.array([m is None for m in self.manoeuvres])
         if keep_fifo:

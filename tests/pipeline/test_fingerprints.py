@@ -108,3 +108,32 @@ def test_an_anchor_row_reads_the_memory_heads_where_the_policy_lacks_the_frame_h
     for stage in build_stages(cfg):
         memory_flags = [arg for arg in stage.argv if arg.endswith("=memory")]
         assert memory_flags == (flags if stage.name.endswith("_anchor") else []), stage.name
+
+
+def test_episode_streams_redo_the_bvmc_rollouts_only(monkeypatch: pytest.MonkeyPatch) -> None:
+    """`--random_streams=episode` reaches every stage that rolls the bvmc out under the recovery controller
+    (threshold, the BVMC rows, the Fig. 3 episodes after them), and only those change their fingerprints:
+    the trainings, checks, foresight and VMC's row stay done."""
+    monkeypatch.setattr(stages_module, "cpu_has_native_bf16", lambda: True)
+    args = [
+        "--task=pick_place",
+        "--preset=lite",
+        "--output_dir=/studies/pick_place_lite",
+        "--train.num_fc_layers=[1]",
+    ]
+    found: dict[str, str] = {}
+    for stage in build_stages(parse_config([*args, "--random_streams=episode"])):
+        found[stage.name] = fingerprint(stage, found)
+        assert ("--recovery.random_streams=episode" in stage.argv) == (
+            stage.name.startswith(("threshold", "eval_bvmc", "fig3"))
+        ), stage.name
+    changed = sorted(name for name in found if found[name] != LITE_PICK_PLACE[name])
+    assert changed == [
+        "detect_fc1",
+        "eval_bvmc_fc1_anchor",
+        "eval_bvmc_fc1_init",
+        "eval_bvmc_fc1_min_unc",
+        "eval_bvmc_fc1_none",
+        "eval_bvmc_fc1_rand",
+        "threshold_fc1",
+    ]

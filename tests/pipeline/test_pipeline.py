@@ -235,6 +235,7 @@ def test_bad_input_is_refused_with_what_to_do(capsys: pytest.CaptureFixture) -> 
         ("--executor.address=auto", "set the Ray cluster: add --executor.type=ray"),
         ("--executor.train_gpus=2", "--executor.train_gpus is the share of one GPU"),
         ("--train.device=tpu", "--train.device must be one of ('auto', 'cpu', 'cuda')"),
+        ("--random_streams=scene", "--random_streams must be one of ('batch', 'episode')"),
     ):
         with pytest.raises(Exception) as refused:
             parse_config(["--task=push", "--preset=smoke", override])

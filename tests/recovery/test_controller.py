@@ -216,6 +216,8 @@ def test_min_unc_choice_mean_and_random_replace_the_foresight_choice() -> None:
         RecoveryConfig(mode="min_unc", min_unc_choice="best")
     with pytest.raises(ValueError, match="no effect with --recovery.mode=rand"):
         RecoveryConfig(mode="rand", min_unc_choice="mean")
+    with pytest.raises(ValueError, match=r"random_streams must be one of \('batch', 'episode'\)"):
+        RecoveryConfig(random_streams="scene")
 
 
 def test_min_unc_widens_its_candidates_with_the_noise_the_head_was_distilled_with() -> None:

@@ -22,13 +22,13 @@ from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
 from lerobot_ivmc.recovery.threshold import THRESHOLD_FILE, ThresholdRecord, argmax_threshold
 
 
-def evaluate(checkpoint: Path, out: Path, *flags: str) -> dict:
+def evaluate(checkpoint: Path, out: Path, *flags: str, n_episodes: int = 2, batch_size: int = 2) -> dict:
     return run_main(
         "lerobot-ivmc-eval",
         f"--policy.path={checkpoint}",
         *ENV_FLAGS,
-        "--eval.n_episodes=2",
-        "--eval.batch_size=2",
+        f"--eval.n_episodes={n_episodes}",
+        f"--eval.batch_size={batch_size}",
         "--seed=0",
         f"--output_dir={out}",
         *flags,
@@ -179,6 +179,43 @@ def test_same_seed_gives_identical_results(tiny_recovery_checkpoint: Path, tmp_p
         assert [e[key] for e in a["per_episode"]] == [e[key] for e in b["per_episode"]]
     for x, y in zip(*(load_traces(tmp_path / n / "uncertainty_traces.npz") for n in "ab"), strict=True):
         np.testing.assert_array_equal(x["uncertainty"], y["uncertainty"])
+
+
+def test_episode_streams_make_an_episode_independent_of_its_batch(
+    tiny_recovery_checkpoint: Path, tmp_path: Path
+) -> None:
+    """With `--recovery.random_streams=episode` each scene's Monte Carlo samples are its own: the same
+    episodes one at a time and two to a batch give the same uncertainties (the default draws a batch's masks
+    together, so they differ)."""
+
+    def traces(name: str, batch_size: int, streams: str) -> list[np.ndarray]:
+        out = tmp_path / name
+        flags = [f"--recovery.random_streams={streams}", "--recovery.max_videos=0"]
+        evaluate(tiny_recovery_checkpoint, out, *flags, batch_size=batch_size)
+        return [t["uncertainty"] for t in load_traces(out / "uncertainty_traces.npz")]
+
+    for a, b in zip(traces("one", 1, "episode"), traces("two", 2, "episode"), strict=True):
+        np.testing.assert_allclose(a, b, rtol=1e-5)
+    one, two = traces("one_batch", 1, "batch"), traces("two_batch", 2, "batch")
+    assert not np.allclose(one[1], two[1], rtol=1e-5)
+
+
+def test_with_episode_streams_a_recovery_row_acts_as_the_row_without_it_until_it_recovers(
+    tiny_recovery_checkpoint: Path, tmp_path: Path
+) -> None:
+    """The rescued / lost counts compare a recovery row with BVMC alone on the same scenes: with episode
+    streams both draw the same samples in every batch until the recovery's first step."""
+    common = ["--recovery.max_videos=0", "--max_episodes_rendered=0", "--recovery.random_streams=episode"]
+    evaluate(tiny_recovery_checkpoint, tmp_path / "none", *common, n_episodes=4)
+    recovery = ["--recovery.mode=rand", "--recovery.threshold=0.0", "--recovery.initial_interval=5"]
+    recovery.append("--recovery.recovery_steps=5")
+    evaluate(tiny_recovery_checkpoint, tmp_path / "rand", *common, *recovery, n_episodes=4)
+    alone, recovered = (load_traces(tmp_path / n / "uncertainty_traces.npz") for n in ("none", "rand"))
+    assert len(alone) == len(recovered) == 4
+    for a, r in zip(alone, recovered, strict=True):
+        first = int(np.flatnonzero(r["phase"] != 0)[0])  # the step its first recovery began
+        np.testing.assert_array_equal(a["uncertainty"][: first + 1], r["uncertainty"][: first + 1])
+        assert not np.array_equal(a["uncertainty"], r["uncertainty"])
 
 
 def test_a_head_distilled_on_widened_actions_makes_min_unc_widen_its_candidates(
