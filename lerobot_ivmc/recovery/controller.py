@@ -237,10 +237,8 @@ class IntrospectiveController(BVMCRolloutWrapper):
         from its episode's own stream; None with `random_streams="batch"` (torch's global generator)."""
         if self.recovery.random_streams != "episode":
             return None
-        shapes = self.policy.net.head.noise_shapes(1, self.policy.config.num_samples)
-        device = self.policy.net.decoder.weight.device
         rows = self._mask_draws
-        return [torch.cat([torch.rand(shape, generator=g) for g in rows]).to(device) for shape in shapes]
+        return self.policy.draw_noise(len(rows), self.policy.config.num_samples, rows)
 
     def grip_positions(self, batch: dict[str, Tensor]) -> np.ndarray:
         """(B, 3) world positions of the grip point, from the normalised environment state."""

@@ -292,3 +292,14 @@ def test_training_loss_augments_the_frames_unless_disabled() -> None:
         assert (first != second) is differs
     with pytest.raises(ValueError, match="image_shift_pad"):
         make_config(VMCConfig, image_shift_pad=-1)
+
+
+def test_per_row_generators_give_each_row_its_own_noise() -> None:
+    """`draw_noise` with one generator a row: row b is what its generator draws alone, whatever the batch."""
+    policy = make_policy(BVMCPolicy, num_fc_layers=2)
+    pair = policy.draw_noise(2, 8, [torch.Generator().manual_seed(s) for s in (3, 4)])
+    alone = policy.draw_noise(1, 8, [torch.Generator().manual_seed(4)])
+    assert all(torch.equal(p[1:], a) for p, a in zip(pair, alone, strict=True))
+    assert [tuple(n.shape) for n in pair] == [(2, *s[1:]) for s in policy.net.head.noise_shapes(1, 8)]
+    with pytest.raises(ValueError, match="one generator per row: 1 for 2"):
+        policy.draw_noise(2, 8, [torch.Generator()])

@@ -157,12 +157,22 @@ class BVMCPolicy(VMCPolicy):
         """The learned dropout probability of each concrete dropout layer."""
         return self.net.head.dropout_probabilities()
 
-    def draw_noise(self, batch_size: int, num_samples: int) -> list[Tensor]:
-        """Uniform noise fixing the masks of every dropout layer: a list of (B, S, K_l) tensors."""
+    def draw_noise(
+        self, batch_size: int, num_samples: int, generators: list[torch.Generator] | None = None
+    ) -> list[Tensor]:
+        """Uniform noise fixing the masks of every dropout layer: a list of (B, S, K_l) tensors, from torch's
+        global generator, or row b from `generators[b]` (CPU generators, one per row)."""
         device = self.net.decoder.weight.device
-        return [
-            torch.rand(shape, device=device) for shape in self.net.head.noise_shapes(batch_size, num_samples)
-        ]
+        if generators is None:
+            return [
+                torch.rand(shape, device=device)
+                for shape in self.net.head.noise_shapes(batch_size, num_samples)
+            ]
+        if len(generators) != batch_size:
+            raise ValueError(f"draw_noise needs one generator per row: {len(generators)} for {batch_size}.")
+        shapes = self.net.head.noise_shapes(1, num_samples)
+        rows = generators
+        return [torch.cat([torch.rand(shape, generator=g) for g in rows]).to(device) for shape in shapes]
 
     def sample_head(
         self, embedding: Tensor, num_samples: int, noise: list[Tensor] | None = None
