@@ -20,18 +20,13 @@ from lerobot_ivmc.datasets import staging
 from lerobot_ivmc.datasets.collect_config import CollectConfig
 from lerobot_ivmc.datasets.features import (
     ACTION_KEY,
-    DEMO_FPS,
     ENV_STATE_KEY,
-    IMAGE_KEY,
     SCENE_OBJECT_CELL_KEY,
     SCENE_SEED_KEY,
     SCENE_TARGET_CELL_KEY,
     STATE_KEY,
-    demo_features,
 )
-from lerobot_ivmc.envs import TASK_ENVS
 
-ROBOT_TYPE = "fetch"
 # Rows whose image bytes are embedded in one call (an episode is 100 to 200 frames).
 EMBED_BATCH_ROWS = 1000
 
@@ -40,27 +35,29 @@ class EpisodeAssembler:
     """Appends staged episodes, in order, to a LeRobotDataset built in the staging folder."""
 
     def __init__(self, cfg: CollectConfig, build_root: Path):
-        self.task_description = TASK_ENVS[cfg.task].task_description
+        self.suite = cfg.suite
+        self.task_description = self.suite.task_description(cfg.task)
+        features = self.suite.features(cfg.image_size, cfg.video)
+        self.image_key = next(key for key, f in features.items() if f["dtype"] in ("image", "video"))
         self.dataset = LeRobotDataset.create(
             repo_id=cfg.repo_id,
-            fps=DEMO_FPS,
-            features=demo_features(cfg.image_size, cfg.video),
+            fps=self.suite.fps,
+            features=features,
             root=build_root,
-            robot_type=ROBOT_TYPE,
+            robot_type=self.suite.robot_type,
             use_videos=cfg.video,
         )
         self.episodes: list[dict] = []
 
     def append(self, episode: staging.StagedEpisode) -> None:
-        scene = {
-            SCENE_SEED_KEY: np.array([episode.scene_seed], dtype=np.int64),
-            SCENE_OBJECT_CELL_KEY: np.array([episode.object_cell], dtype=np.int64),
-            SCENE_TARGET_CELL_KEY: np.array([episode.target_cell], dtype=np.int64),
-        }
+        scene = {SCENE_SEED_KEY: np.array([episode.scene_seed], dtype=np.int64)}
+        if self.suite.scene_cells:
+            scene[SCENE_OBJECT_CELL_KEY] = np.array([episode.object_cell], dtype=np.int64)
+            scene[SCENE_TARGET_CELL_KEY] = np.array([episode.target_cell], dtype=np.int64)
         for t in range(episode.num_frames):
             self.dataset.add_frame(
                 {
-                    IMAGE_KEY: episode.images[t],
+                    self.image_key: episode.images[t],
                     STATE_KEY: episode.state[t],
                     ENV_STATE_KEY: episode.environment_state[t],
                     ACTION_KEY: episode.action[t],

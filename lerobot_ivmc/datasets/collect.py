@@ -58,8 +58,8 @@ def _plan(start: int, need: int, successes: dict, failures: set) -> list[int]:
 
 
 def recorder_args(cfg: CollectConfig, episodes_dir: Path) -> tuple:
-    """The arguments of `expert_attempts.Recorder` (and of `expert_attempts.init_worker`, which builds one
-    per worker)."""
+    """The arguments of the suite's recorder (`expert_attempts.Recorder`) and of
+    `expert_attempts.init_worker`, which builds one per worker."""
     return (
         cfg.task,
         cfg.image_size,
@@ -128,7 +128,7 @@ def _run_collection(cfg: CollectConfig, work: Path, summary: CollectSummary) -> 
                         f"(staged episodes are kept in {episodes_dir})."
                     )
                 if cfg.num_workers == 0:
-                    recorder = recorder or expert_attempts.Recorder(*recorder_args(cfg, episodes_dir))
+                    recorder = recorder or cfg.suite.recorder_class()(*recorder_args(cfg, episodes_dir))
                     results = map(recorder.record, attempts)
                 else:
                     pool = pool or _make_pool(cfg, episodes_dir)
@@ -161,7 +161,7 @@ def push_dataset(root: Path, repo_id: str, private: bool = False, tags: list[str
 
     dataset = LeRobotDataset(repo_id, root=root)
     try:
-        dataset.push_to_hub(private=private, tags=tags or ["lerobot-ivmc", "fetch", "expert-demonstrations"])
+        dataset.push_to_hub(private=private, tags=tags or ["lerobot-ivmc", "expert-demonstrations"])
     except (HfHubHTTPError, OfflineModeIsEnabled, RequestException, OSError) as error:
         first_line = (str(error).strip().splitlines() or [""])[0]
         raise staging.CollectionError(

@@ -7,13 +7,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from lerobot_ivmc.datasets import staging
-from lerobot_ivmc.datasets.features import (
-    DEMO_FPS,
-    demo_features,
-)
-from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, check_demo_episode_steps, check_task, gym_id
+from lerobot_ivmc.datasets.demo_suites import DemoSuite, suite_of
 from lerobot_ivmc.envs.camera import check_image_size
-from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE, LEGACY_RENDER_STYLE, check_render_style
+from lerobot_ivmc.envs.render_styles import LEGACY_RENDER_STYLE, check_render_style
 from lerobot_ivmc.envs.scenes import SPLITS
 
 
@@ -22,22 +18,24 @@ class CollectConfig:
     """What to collect and where.
 
     Args:
-        task: task name, one of `lerobot_ivmc.envs.TASKS`.
+        task: task name, one of `lerobot_ivmc.envs.TASKS` or a MetaWorld v3 task (`demo_suites.suite_of`).
         num_episodes: number of successful demonstrations the dataset must hold.
         root: local dataset folder; default ``data/ivmc_<task>`` under the working directory.
         repo_id: dataset id (``<hub user>/<name>`` to push); default ``local/ivmc_<task>``.
         split: scene split the demonstrations come from: "train" (policy training), "val" or "test".
         image_size: camera image height and width, in pixels.
-        render_style: how the camera image is drawn (`fetch_env.RENDER_STYLES`); recorded in the dataset's
-            `meta/ivmc_collection.json`, from which `lerobot-ivmc-train` records it in the checkpoint.
+        render_style: how the camera image is drawn (`render_styles.RENDER_STYLES`); recorded in the
+            dataset's `meta/ivmc_collection.json`, from which `lerobot-ivmc-train` records it in the
+            checkpoint. None: the suite's default ("fast" for the Fetch tasks, "flat" for MetaWorld).
         video: store the camera as mp4 video instead of PNG frames (slower to decode when training).
         num_workers: parallel recording processes; 0 records in this process.
         seed: base seed from which every attempt's scene seed is derived.
         action_noise: std (action units, 1 = 5 cm) of Gaussian noise on the executed delta-EE command while
             the recorded action stays the expert's (DART); 0 records the expert's own trajectories.
-        episode_steps: steps of every demo, 100 (4 s at 25 Hz) to 200 (the rollouts' limit). Success does
-            not end a demo: once done, the expert holds its final pose, so longer demos show the policy's
-            carried memory older states than the 100-step demos.
+        episode_steps: steps of every demo; None: the suite's default (Fetch: 100, 4 s at 25 Hz, up to 200,
+            the rollouts' limit; MetaWorld: 150 of its 500). Success does not end a demo: once done, the
+            expert holds its final pose (MetaWorld's policy keeps acting), and the demo counts only if the
+            task is done at its last step.
         push_to_hub: publish the finished dataset with `LeRobotDataset.push_to_hub`.
         private: make the hub repository private.
         progress: show a progress bar.
@@ -49,18 +47,20 @@ class CollectConfig:
     repo_id: str | None = None
     split: str = "train"
     image_size: int = 64
-    render_style: str = DEFAULT_RENDER_STYLE
+    render_style: str | None = None
     video: bool = False
     num_workers: int = 2
     seed: int = 0
     action_noise: float = 0.0
-    episode_steps: int = DEMO_EPISODE_STEPS
+    episode_steps: int | None = None
     push_to_hub: bool = False
     private: bool = False
     progress: bool = True
 
     def __post_init__(self) -> None:
-        check_task(self.task)
+        suite = self.suite
+        self.render_style = self.render_style or suite.default_render_style
+        self.episode_steps = self.episode_steps or suite.default_episode_steps
         if not isinstance(self.num_episodes, int) or self.num_episodes <= 0:
             raise ValueError(f"num_episodes must be a positive integer, got {self.num_episodes!r}.")
         if self.split not in SPLITS:
@@ -71,7 +71,7 @@ class CollectConfig:
             raise ValueError(f"num_workers must be >= 0, got {self.num_workers}.")
         if self.seed < 0:
             raise ValueError(f"seed must be >= 0, got {self.seed}.")
-        check_demo_episode_steps("episode_steps", self.episode_steps)
+        suite.check_episode_steps("episode_steps", self.episode_steps)
         if not 0.0 <= self.action_noise <= 1.0:
             raise ValueError(f"action_noise must be in [0, 1] action units, got {self.action_noise}.")
         self.root = Path(self.root) if self.root is not None else Path("data") / f"ivmc_{self.task}"
@@ -86,6 +86,11 @@ class CollectConfig:
                 f"{self.repo_id!r}."
             )
 
+    @property
+    def suite(self) -> DemoSuite:
+        """The task's suite (an unknown task raises a ValueError listing the suites' tasks)."""
+        return suite_of(self.task)
+
     def spec(self) -> dict:
         """What the dataset in `root` must match to be resumed or reused (the episode count aside)."""
         # Noise-free collections keep the spec they had before noise injection existed. Noisy ones name the
@@ -98,19 +103,20 @@ class CollectConfig:
         )
         # Datasets of the Fetch XML's look keep the spec they had before render styles existed.
         style = {} if self.render_style == LEGACY_RENDER_STYLE else {"render_style": self.render_style}
+        suite = self.suite
         return staging.normalise(
             {
                 **noise,
                 **style,
                 "task": self.task,
-                "gym_id": gym_id(self.task),
+                "gym_id": suite.gym_id(self.task),
                 "split": self.split,
                 "seed": self.seed,
                 "image_size": self.image_size,
                 "video": self.video,
-                "fps": DEMO_FPS,
+                "fps": suite.fps,
                 "episode_steps": self.episode_steps,
-                "features": demo_features(self.image_size, self.video),
+                "features": suite.features(self.image_size, self.video),
             }
         )
 

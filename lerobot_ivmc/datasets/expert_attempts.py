@@ -125,7 +125,7 @@ class Recorder:
         self.env.close()
 
 
-_worker_recorder: Recorder | None = None
+_worker_recorder = None  # this worker's `Recorder` (or the suite's recorder of the same interface)
 
 
 def init_worker(
@@ -141,7 +141,9 @@ def init_worker(
     """Pool initializer: build the worker's env once. Ctrl-C is left to the parent, which stops the pool."""
     global _worker_recorder
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    _worker_recorder = Recorder(
+    from lerobot_ivmc.datasets.demo_suites import suite_of
+
+    _worker_recorder = suite_of(task).recorder_class()(
         task, image_size, split, base_seed, Path(episodes_dir), action_noise, episode_steps, render_style
     )
 

@@ -14,6 +14,8 @@ from lerobot_ivmc.envs.fetch_env import ARM_JOINTS, FINGER_JOINTS
 DEMO_FPS = 25
 
 IMAGE_KEY = f"observation.images.{CAMERA_NAME}"
+# The single camera of `lerobot/metaworld_mt50` and of LeRobot's MetaWorld env.
+METAWORLD_IMAGE_KEY = "observation.image"
 STATE_KEY = "observation.state"
 ENV_STATE_KEY = "observation.environment_state"
 ACTION_KEY = "action"

@@ -14,8 +14,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from lerobot_ivmc.datasets.collect_config import CollectConfig
-from lerobot_ivmc.envs import DEMO_EPISODE_STEPS
-from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE
 
 
 @dataclass
@@ -23,10 +21,11 @@ class DemoEnvConfig:
     """Which scenes the expert runs on.
 
     Args:
-        task: task name (push, pick_place, pick_reach).
+        task: task name (push, pick_place, pick_reach, or a MetaWorld v3 task such as pick-place-v3).
         split: scene split of the demos ("train" for policy training).
         image_size: camera height and width in pixels.
-        render_style: how the camera image is drawn ("fast" or "fetch", `fetch_env.RENDER_STYLES`).
+        render_style: how the camera image is drawn (`render_styles.RENDER_STYLES`); default: the suite's
+            ("fast" for the Fetch tasks, "flat" for MetaWorld).
 
     The task has no default: the command refuses to run without it.
     """
@@ -34,7 +33,7 @@ class DemoEnvConfig:
     task: str = ""
     split: str = "train"
     image_size: int = 64
-    render_style: str = DEFAULT_RENDER_STYLE
+    render_style: str | None = None
 
 
 @dataclass
@@ -45,7 +44,7 @@ class DemoDatasetConfig:
         repo_id: dataset id; default ``local/ivmc_<task>`` (``<hub user>/<name>`` to push).
         root: local dataset folder; default ``data/ivmc_<task>``.
         num_episodes: successful demos the dataset must hold.
-        episode_steps: steps of every demo (100 to 200; the expert holds its final pose once done).
+        episode_steps: steps of every demo (Fetch: 100 to 200, default 100; MetaWorld: default 150).
         video: store the camera as mp4 instead of PNG frames.
         push_to_hub: publish the finished dataset with `LeRobotDataset.push_to_hub`.
         private: make the hub repository private.
@@ -56,7 +55,7 @@ class DemoDatasetConfig:
     repo_id: str | None = None
     root: Path | None = None
     num_episodes: int = 0
-    episode_steps: int = DEMO_EPISODE_STEPS
+    episode_steps: int | None = None
     video: bool = False
     push_to_hub: bool = False
     private: bool = False
@@ -88,7 +87,7 @@ class RecordDemosConfig:
     def to_collect_config(self) -> CollectConfig:
         """The flat `CollectConfig` (validated: unknown task, bad counts and roots raise ValueError)."""
         if not self.env.task:
-            raise ValueError("Give the task: --env.task=push|pick_place|pick_reach.")
+            raise ValueError("Give the task: --env.task=push|pick_place|pick_reach or a MetaWorld task.")
         if self.dataset.num_episodes <= 0:
             raise ValueError(
                 "Give how many demos to record: --dataset.num_episodes=N (N > 0), got "

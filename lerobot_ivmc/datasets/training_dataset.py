@@ -1,6 +1,7 @@
 """The dataset `lerobot-ivmc-train` (`scripts/lerobot_ivmc_train.py`) hands LeRobot's training loop: LeRobot's
 own `make_dataset`, its frames cached in memory (`FrameCache`), with the policy fields a training takes from
-its dataset filled in (concrete dropout's N, the render style, the training task) and checked."""
+its dataset filled in (concrete dropout's N, the render style, the training task, where the auxiliary
+targets sit in the environment state) and checked."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from pathlib import Path
 from lerobot.datasets import factory
 
 from lerobot_ivmc.datasets.collection_record import dataset_render_style, dataset_task
+from lerobot_ivmc.datasets.demo_suites import suite_of
 from lerobot_ivmc.datasets.frame_cache import FrameCache
 from lerobot_ivmc.policies.legacy_configs import command_line_policy_fields, complete_legacy_config
 
@@ -39,8 +41,12 @@ def make_cached_dataset(cfg) -> FrameCache:
         cfg.policy.dataset_size = dataset.num_frames
     if hasattr(cfg.policy, "render_style"):
         record_render_style(cfg.policy, dataset_render_style(dataset.root))
+    task = dataset_task(dataset.root)
     if hasattr(cfg.policy, "trained_task"):
-        cfg.policy.trained_task = dataset_task(dataset.root)
+        cfg.policy.trained_task = task
+    if getattr(cfg.policy, "aux_state_indices", 0) is None and task is not None:
+        indices = suite_of(task).aux_state_indices  # where the suite's state keeps the EE and the object
+        cfg.policy.aux_state_indices = None if indices is None else list(indices)
     return dataset
 
 

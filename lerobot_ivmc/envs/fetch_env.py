@@ -28,7 +28,9 @@ from gymnasium_robotics.utils import mujoco_utils  # noqa: E402
 
 from lerobot_ivmc.envs import scene_model  # noqa: E402
 from lerobot_ivmc.envs.camera import OBS_TYPES, check_image_size  # noqa: E402
-from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE, RENDER_STYLES, check_render_style  # noqa: E402
+from lerobot_ivmc.envs.embodiment import Embodiment  # noqa: E402
+from lerobot_ivmc.envs.offscreen import make_styled_renderer  # noqa: E402
+from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE, check_render_style  # noqa: E402
 from lerobot_ivmc.envs.scenes import Grid, Scene, cell_jitter, scenes_of_split  # noqa: E402
 
 logger = logging.getLogger(__name__)
@@ -47,6 +49,17 @@ FINGER_GEOMS = ("robot0:l_gripper_finger_link", "robot0:r_gripper_finger_link")
 GRIP_SITE = "robot0:grip"
 GRIPPER_CLOSE, GRIPPER_NOOP, GRIPPER_OPEN = -1, 0, 1
 POSITION_SCALE = 0.05  # metres per unit of action, as in gymnasium-robotics Fetch
+# The Fetch arm as recovery sees it: the grip point first in `environment_state`, the fingers last in
+# `agent_pos`.
+EMBODIMENT = Embodiment(
+    name="fetch",
+    metres_per_action_unit=POSITION_SCALE,
+    gripper_open=GRIPPER_OPEN,
+    gripper_close=GRIPPER_CLOSE,
+    gripper_noop=GRIPPER_NOOP,
+    grip_state_indices=(0, 1, 2),
+    finger_state_indices=tuple(range(len(ARM_JOINTS), len(ARM_JOINTS) + len(FINGER_JOINTS))),
+)
 DELTA_EE_DIM = 3  # action = [dx, dy, dz, gripper]
 N_SUBSTEPS = 20  # 20 x 2 ms = 25 Hz control
 _FINGER_OPEN, _FINGER_CLOSED = 0.05, 0.0  # finger position targets (actuator ctrlrange is [0, 0.2])
@@ -357,26 +370,7 @@ class IvmcFetchEnv(gym.Env, EzPickle):
         return renderer.render().copy()
 
     def _make_renderer(self, size: int) -> mujoco.Renderer:
-        """A renderer of `size` x `size` frames whose offscreen framebuffer is that size, in this style."""
-        # MuJoCo's rendering context takes its framebuffer's size and multisampling from the model's visual
-        # settings when it is created; they do not affect the physics. A frame-sized buffer draws the same
-        # pixels as the Fetch XML's 640 x 480 one, without clearing and resolving the rest of it.
-        style = RENDER_STYLES[self.render_style]
-        self.model.vis.global_.offwidth = self.model.vis.global_.offheight = size
-        self.model.vis.quality.offsamples = style.multisamples
-        try:
-            renderer = mujoco.Renderer(self.model, size, size)
-        except mujoco.FatalError as error:
-            raise RuntimeError(
-                "MuJoCo could not create an offscreen renderer "
-                f"(MUJOCO_GL={os.environ.get('MUJOCO_GL')!r}). "
-                "Set MUJOCO_GL=egl (or osmesa) in the environment before anything imports mujoco; "
-                "lerobot_ivmc sets it only if mujoco was not imported first."
-            ) from error
-        # The scene's render flags persist across `update_scene` calls: set once.
-        renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = style.shadows
-        renderer.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = style.reflections
-        return renderer
+        return make_styled_renderer(self.model, size, self.render_style)
 
 
 def _parse_action(action: np.ndarray) -> tuple[np.ndarray, int]:

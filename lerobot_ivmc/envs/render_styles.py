@@ -28,10 +28,12 @@ class RenderStyle:
 # "fetch": the look of the Fetch XML (4x MSAA, shadows, reflections), that of every dataset and checkpoint
 # made before render styles existed. "fast": no multisampling, which is most of the cost of a 64-px frame
 # (benchmarks/bench_env.py); shadows and reflections are kept, since they cost little and the shadow under
-# a lifted cube is the camera's cue of its height.
+# a lifted cube is the camera's cue of its height. "flat": also without shadows and reflections, the
+# MetaWorld suite's default (its scenes' shadows and mirror-like floor cost most of a 64-px frame there).
 RENDER_STYLES = {
     "fetch": RenderStyle(multisamples=4, shadows=True, reflections=True),
     "fast": RenderStyle(multisamples=0, shadows=True, reflections=True),
+    "flat": RenderStyle(multisamples=0, shadows=False, reflections=False),
 }
 DEFAULT_RENDER_STYLE = "fast"
 # What datasets and checkpoints that do not record a render style were made with.

@@ -11,6 +11,7 @@ from pprint import pformat
 import gymnasium as gym
 import torch
 from lerobot.configs.eval import EvalPipelineConfig
+from lerobot.envs.configs import EnvConfig
 from lerobot.scripts.lerobot_eval import eval_policy
 from lerobot.utils.constants import OBS_STATE
 from lerobot.utils.random_utils import set_seed
@@ -18,14 +19,13 @@ from lerobot.utils.random_utils import set_seed
 from lerobot_ivmc.atomic_files import write_json_atomic
 from lerobot_ivmc.constants import EVAL_INFO_FILE
 from lerobot_ivmc.datasets.root_lock import EVAL_LOCK_FILE, RootLock
-from lerobot_ivmc.envs import task_env_class
-from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
 from lerobot_ivmc.envs.vector_env import make_vector_env
 from lerobot_ivmc.evaluation.compatibility import check_policy_matches_env
 from lerobot_ivmc.evaluation.feature_stats import env_state_stats, feature_stats
 from lerobot_ivmc.evaluation.loading import load_policy
 from lerobot_ivmc.evaluation.metrics import aggregate_milestones
 from lerobot_ivmc.evaluation.milestone_recorder import MilestoneRecorder
+from lerobot_ivmc.evaluation.plugin_envs import check_plugin_env, embodiment_of, recovery_settings
 from lerobot_ivmc.evaluation.recovery_videos import (
     RecoveryVideoStore,
     recovery_phase_summary,
@@ -73,7 +73,7 @@ class IvmcEvalConfig(EvalPipelineConfig):
 
 
 def make_recorded_vector_env(
-    env_cfg: IvmcEnv, n_envs: int, use_async: bool = False, park: bool = True
+    env_cfg: EnvConfig, n_envs: int, use_async: bool = False, park: bool = True
 ) -> gym.vector.VectorEnv:
     """The vector env LeRobot's `make_env` would build, with a `MilestoneRecorder` on each sub-env (and
     finished sub-envs parked, as `make_vector_env` says)."""
@@ -108,10 +108,8 @@ def evaluate(cfg: IvmcEvalConfig, ignore_stored_threshold: bool = False) -> dict
 
     `ignore_stored_threshold` skips the checkpoint's `recovery_threshold.json` (to pick a new one).
     """
-    if not isinstance(cfg.env, IvmcEnv):
-        raise ValueError(
-            f"lerobot-ivmc-eval evaluates --env.type=ivmc, got {cfg.env.type!r}; use lerobot-eval."
-        )
+    check_plugin_env(cfg.env, "lerobot-ivmc-eval")
+    recovery_settings(cfg.recovery, cfg.env)  # refuses a mode the env has no settings for
     if cfg.seed is None:
         raise ValueError("Pass --seed: episodes are matched to their subtask records through seeded resets.")
     check_recovery_request(cfg)
@@ -154,13 +152,14 @@ def run_evaluation(cfg: IvmcEvalConfig, output_dir: Path, ignore_stored_threshol
             video_store = RecoveryVideoStore(cfg.recovery.max_videos, policy.config.image_feature_key)
         controller = IntrospectiveController(
             policy,
-            cfg.recovery.for_task_class(task_env_class(cfg.env.task)),
+            recovery_settings(cfg.recovery, cfg.env),
             threshold,
             window,
             env_state_stats(loaded.preprocessor),
             seed=cfg.seed,
             observers=(video_store,) if video_store is not None else (),
             state_stats=feature_stats(loaded.preprocessor, OBS_STATE),
+            embodiment=embodiment_of(cfg.env),
         )
     # Seed again once everything is built: the Monte Carlo masks then do not depend on how many random
     # draws building the policy took (e.g. a checkpoint with or without a foresight head).
@@ -235,7 +234,7 @@ def add_recovery_results(
         "threshold": threshold,
         "threshold_source": source,
         "window": window,
-        "settings": asdict(cfg.recovery.for_task_class(task_env_class(cfg.env.task))),  # as they acted
+        "settings": asdict(recovery_settings(cfg.recovery, cfg.env)),  # as they acted
         "num_recoveries": sum(len(e["events"]) for e in episodes),
         "episodes_with_recovery": sum(bool(e["events"]) for e in episodes),
         "traces": TRACES_FILE,

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from lerobot_ivmc.envs.fetch_env import EMBODIMENT as FETCH
 from lerobot_ivmc.envs.fetch_env import GRIPPER_CLOSE, GRIPPER_OPEN
 from lerobot_ivmc.experts.push import APPROACH_GAP, CONTACT_X, CONTACT_Y, HOVER, PUSH_SPEED
 from lerobot_ivmc.recovery.config import ANCHOR_GOAL_STEPS, MAX_HELD_OFFSET
@@ -42,7 +43,6 @@ from lerobot_ivmc.recovery.manoeuvres import (
     REGRASP,
     Manoeuvre,
     MemoryChange,
-    move_towards,
 )
 
 # The fingers hold something when their joint positions sum to a gap between these (metres): fully
@@ -170,7 +170,7 @@ class WaypointMoves(Manoeuvre):
         distance = float(np.linalg.norm(offset))
         speed = waypoint.speed
         target = waypoint.position if distance <= speed else grip + offset * (speed / distance)
-        return move_towards(grip, target, waypoint.gripper)
+        return FETCH.move_towards(grip, target, waypoint.gripper)
 
 
 def rise_towards(grip: np.ndarray, above: np.ndarray) -> np.ndarray:
@@ -259,7 +259,7 @@ class LookFromStart(Manoeuvre):
         if not self.travel.finished:
             return self.travel.act(grip, min_unc_action)
         self.steps_left -= 1
-        return move_towards(grip, self.target, self.gripper)
+        return FETCH.move_towards(grip, self.target, self.gripper)
 
 
 def on_table(obj: np.ndarray, rest_height: float) -> np.ndarray:

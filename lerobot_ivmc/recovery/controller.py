@@ -18,7 +18,8 @@ import torch
 from lerobot.utils.constants import OBS_ENV_STATE, OBS_STATE
 from torch import Tensor
 
-from lerobot_ivmc.envs.fetch_env import ARM_JOINTS, GRIPPER_CLOSE, GRIPPER_NOOP, GRIPPER_OPEN
+from lerobot_ivmc.envs.embodiment import Embodiment
+from lerobot_ivmc.envs.fetch_env import EMBODIMENT as FETCH
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy, MCPrediction
 from lerobot_ivmc.recovery.anchor import (
     PUSH_LEGS,
@@ -108,13 +109,14 @@ class IntrospectiveController(BVMCRolloutWrapper):
         threshold: C (required unless mode is "none").
         window: the sliding window's length.
         env_state_stats: (mean, std) of `observation.environment_state`, to read the grip point's position
-            from the normalised observation (the first three entries).
+            from the normalised observation (where `embodiment` says).
         seed: seeds the random draws of rand and init, and min_unc's candidate noise (each rollout its own
             streams, `_draws`), and with `recovery.random_streams="episode"` each episode's Monte Carlo
             masks.
         observers: shown every step's observation batch and every finished batch's trace.
-        state_stats: (mean, std) of `observation.state`, to read the finger joints (its last two entries);
-            required by `anchor`, which decides by them whether the robot holds the object.
+        state_stats: (mean, std) of `observation.state`, to read the finger joints (where `embodiment`
+            says); required by `anchor`, which decides by them whether the robot holds the object.
+        embodiment: the robot: where its grip point and fingers are, its action scale and gripper commands.
     """
 
     name = "bvmc_introspective"
@@ -129,8 +131,10 @@ class IntrospectiveController(BVMCRolloutWrapper):
         seed: int = 0,
         observers: tuple[StepObserver, ...] = (),
         state_stats: tuple[Tensor, Tensor] | None = None,
+        embodiment: Embodiment = FETCH,
     ):
         super().__init__(policy)
+        self.embodiment = embodiment
         # Anchor's task-dependent settings left unset (`RecoveryConfig.for_task` fills them from the task):
         # those of a task that picks its object up and lets it go at the goal, as pick_place, acting at the
         # object's believed height.
@@ -205,7 +209,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
         self.anchors = [BeliefAnchor(self.recovery.anchor_goal_steps) for _ in range(batch_size)]
         self.object_beliefs = np.zeros((batch_size, 3))  # the last step's believed object positions
         # The last gripper command other than no-op each rollout executed (the fingers' open start: open).
-        self.last_gripper = np.full(batch_size, GRIPPER_OPEN, dtype=np.int64)
+        self.last_gripper = np.full(batch_size, self.embodiment.gripper_open, dtype=np.float64)
         self.initial_grip = grip.copy()
         self.step = 0
         self._row_draws = {}
@@ -244,13 +248,13 @@ class IntrospectiveController(BVMCRolloutWrapper):
         """(B, 3) world positions of the grip point, from the normalised environment state."""
         env_state = batch[OBS_ENV_STATE].float().cpu()
         raw = env_state * self.env_state_std + self.env_state_mean
-        return raw[:, :3].numpy().astype(np.float64)
+        return raw[:, list(self.embodiment.grip_state_indices)].numpy().astype(np.float64)
 
     def finger_joints(self, batch: dict[str, Tensor]) -> np.ndarray:
-        """(B, 2) finger joint positions (metres) from the normalised proprioception."""
+        """(B, F) finger positions from the normalised proprioception (Fetch: its two joints, metres)."""
         mean, std = self.state_stats
         raw = batch[OBS_STATE].float().cpu() * std + mean
-        return raw[:, len(ARM_JOINTS) :].numpy().astype(np.float64)
+        return raw[:, list(self.embodiment.finger_state_indices)].numpy().astype(np.float64)
 
     def _update_beliefs(self, prediction: MCPrediction, uncertainty: np.ndarray, normal: np.ndarray) -> None:
         """Read the believed object and goal positions (the net's deterministic heads, or the frame position
@@ -271,7 +275,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
 
     def _holding(self, row: int, fingers: np.ndarray) -> bool:
         """Whether rollout `row` holds the object: it last commanded "close" and the fingers rest apart."""
-        return bool(self.last_gripper[row] == GRIPPER_CLOSE) and is_holding(fingers[row])
+        return bool(self.last_gripper[row] == self.embodiment.gripper_close) and is_holding(fingers[row])
 
     def _carry(self, row: int, grip: np.ndarray, grasped_offset: np.ndarray | None = None) -> Manoeuvre:
         """Carry the held object to the anchored goal; `grasped_offset`: where anchor's own re-grasp put the
@@ -352,7 +356,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
     ) -> Manoeuvre:
         mode, cfg = self.recovery.mode, self.recovery
         if mode == "anchor" and cfg.anchor_look_steps > 0 and not self._holding(row, fingers):
-            gripper = int(self.last_gripper[row])
+            gripper = int(self.last_gripper[row])  # anchor runs on the Fetch arm only
             manoeuvre = LookFromStart(
                 grip,
                 self.initial_grip[row],
@@ -370,6 +374,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
                 cfg.recovery_steps,
                 cfg.backtrack_horizon,
                 cfg.backtrack_tolerance,
+                self.embodiment,
                 memory=cfg.min_unc_memory,
             )
             event_extra = {"backtrack_to_step": manoeuvre.target.step}
@@ -385,6 +390,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
                 cfg.recovery_steps,
                 cfg.move_tolerance,
                 self._draws(row)[0],
+                self.embodiment,
             )
             event_extra = {"target": manoeuvre.target.round(4).tolist()}
         self.fifos[row].clear()
@@ -452,8 +458,11 @@ class IntrospectiveController(BVMCRolloutWrapper):
             action = manoeuvre.act(grip[row], lambda row=row: self._min_unc_action(prediction, row))
             actions[row] = torch.as_tensor(action, dtype=actions.dtype, device=actions.device)
 
-        commands = np.rint(actions[:, -1].float().cpu().numpy()).astype(np.int64)
-        self.last_gripper = np.where(commands != GRIPPER_NOOP, commands, self.last_gripper)
+        held = torch.isnan(actions[:, -1])  # manoeuvres that leave the fingers as they are
+        if held.any():
+            hold = torch.as_tensor(self.embodiment.hold(self.last_gripper), dtype=actions.dtype)
+            actions[:, -1] = torch.where(held, hold.to(actions.device), actions[:, -1])
+        self.last_gripper = self.embodiment.remember(self.last_gripper, actions[:, -1].float().cpu().numpy())
         trace = self.traces[-1]
         trace.uncertainty.append(uncertainty)
         trace.window_sum.append(window_sum.copy())

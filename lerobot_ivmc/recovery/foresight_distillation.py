@@ -16,6 +16,7 @@ from lerobot.utils.random_utils import set_seed
 from lerobot_ivmc.constants import PRETRAINED_MODEL_DIR
 from lerobot_ivmc.envs import make_task_env_from_config
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
+from lerobot_ivmc.envs.metaworld.configuration import SeededMetaworldEnvConfig
 from lerobot_ivmc.envs.vector_env import make_vector_env
 from lerobot_ivmc.evaluation.compatibility import check_policy_matches_env
 from lerobot_ivmc.evaluation.loading import load_policy
@@ -50,8 +51,15 @@ def copy_checkpoint_extras(source: Path, destination: Path) -> None:
 
 
 def check_inputs(cfg: ForesightPipelineConfig) -> Path:
-    if not isinstance(cfg.env, IvmcEnv):
-        raise ValueError(f"lerobot-ivmc-foresight runs on --env.type=ivmc, got {cfg.env.type!r}.")
+    if not isinstance(cfg.env, IvmcEnv | SeededMetaworldEnvConfig):
+        raise ValueError(
+            f"lerobot-ivmc-foresight runs on --env.type=ivmc or meta_world, got {cfg.env.type!r}."
+        )
+    if not isinstance(cfg.env, IvmcEnv) and cfg.foresight.ranking_states > 0:
+        raise ValueError(
+            "--foresight.ranking_states replays simulator snapshots of the Fetch tasks; pass "
+            "--foresight.ranking_states=0 on --env.type=meta_world."
+        )
     if cfg.policy is None or cfg.policy.pretrained_path is None:
         raise ValueError("Pass --policy.path=<bvmc checkpoint folder>.")
     if cfg.policy.type != "bvmc":

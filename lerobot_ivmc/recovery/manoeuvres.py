@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from torch import Tensor
 
-from lerobot_ivmc.envs.fetch_env import GRIPPER_NOOP, GRIPPER_OPEN, POSITION_SCALE
+from lerobot_ivmc.envs.embodiment import HOLD, Embodiment
 
 # Phases recorded per step in the traces (the last four: `anchor.py`'s manoeuvres).
 NORMAL, BACKTRACK, FOLLOW_MIN_UNC, RANDOM_MOVES, MOVE_TO_INIT, CARRY_TO_GOAL, PUSH_TO_GOAL, REGRASP, LOOK = (
@@ -31,12 +31,6 @@ PHASE_NAMES = (
     "regrasp",
     "look",
 )
-
-
-def move_towards(grip: np.ndarray, target: np.ndarray, gripper: int = GRIPPER_NOOP) -> np.ndarray:
-    """A delta-EE action (4,) that moves the grip point as far toward `target` as one step allows."""
-    delta = np.clip((target - grip) / POSITION_SCALE, -1.0, 1.0)
-    return np.array([*delta, gripper], dtype=np.float32)
 
 
 @dataclass
@@ -98,7 +92,13 @@ class BacktrackThenFollow(Manoeuvre):
     """
 
     def __init__(
-        self, fifo: list[FifoEntry], steps: int, horizon: int, tolerance: float, memory: str = "restore"
+        self,
+        fifo: list[FifoEntry],
+        steps: int,
+        horizon: int,
+        tolerance: float,
+        embodiment: Embodiment,
+        memory: str = "restore",
     ):
         if not fifo:
             raise ValueError("Back-tracking needs at least one step in the FIFO.")
@@ -108,6 +108,7 @@ class BacktrackThenFollow(Manoeuvre):
         self.backtrack_steps_left = horizon
         self.tolerance = tolerance
         self.memory = memory
+        self.embodiment = embodiment
         self.finished = False
 
     def advance(self, grip: np.ndarray) -> MemoryChange | None:
@@ -125,7 +126,7 @@ class BacktrackThenFollow(Manoeuvre):
     def act(self, grip: np.ndarray, min_unc_action: Callable[[], np.ndarray]) -> np.ndarray:
         if self.phase == BACKTRACK:
             self.backtrack_steps_left -= 1
-            return move_towards(grip, self.target.grip)
+            return self.embodiment.move_towards(grip, self.target.grip)
         self.steps_left -= 1
         return min_unc_action()
 
@@ -149,7 +150,7 @@ class RandomMoves(Manoeuvre):
     def act(self, grip: np.ndarray, min_unc_action: Callable[[], np.ndarray]) -> np.ndarray:
         move = self.moves[self.done_steps]
         self.done_steps += 1
-        return np.array([*move, GRIPPER_NOOP], dtype=np.float32)
+        return np.array([*move, HOLD], dtype=np.float32)
 
 
 class MoveToInit(Manoeuvre):
@@ -159,8 +160,15 @@ class MoveToInit(Manoeuvre):
     phase = MOVE_TO_INIT
 
     def __init__(
-        self, centre: np.ndarray, radius: float, steps: int, tolerance: float, rng: np.random.Generator
+        self,
+        centre: np.ndarray,
+        radius: float,
+        steps: int,
+        tolerance: float,
+        rng: np.random.Generator,
+        embodiment: Embodiment,
     ):
+        self.embodiment = embodiment
         direction = rng.normal(size=3)
         direction /= np.linalg.norm(direction)
         self.target = centre + direction * radius * rng.uniform() ** (1.0 / 3.0)  # uniform in the ball
@@ -176,4 +184,4 @@ class MoveToInit(Manoeuvre):
 
     def act(self, grip: np.ndarray, min_unc_action: Callable[[], np.ndarray]) -> np.ndarray:
         self.steps_left -= 1
-        return move_towards(grip, self.target, GRIPPER_OPEN)
+        return self.embodiment.move_towards(grip, self.target, self.embodiment.gripper_open)

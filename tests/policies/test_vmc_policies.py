@@ -215,15 +215,31 @@ def feature_without(key: str) -> dict:
     return {"input_features": inputs, "output_features": config.output_features}
 
 
-@pytest.mark.parametrize(
-    ("missing", "match"),
-    [(IMAGE_KEY, "RGB camera"), (OBS_STATE, "observation.state"), (OBS_ENV_STATE, "environment_state")],
-)
+@pytest.mark.parametrize(("missing", "match"), [(IMAGE_KEY, "RGB camera"), (OBS_STATE, "observation.state")])
 @pytest.mark.parametrize("cls", [VMCPolicy, BVMCPolicy])
 def test_missing_features_give_clear_errors(cls: type[VMCPolicy], missing: str, match: str) -> None:
     config = cls.config_class(device="cpu", **feature_without(missing))
     with pytest.raises(ValueError, match=match):
         cls(config)
+
+
+@pytest.mark.parametrize("cls", [VMCPolicy, BVMCPolicy])
+def test_without_environment_state_the_auxiliary_heads_are_off_and_asking_for_them_is_refused(
+    cls: type[VMCPolicy],
+) -> None:
+    policy = cls(cls.config_class(device="cpu", **feature_without(OBS_ENV_STATE)))  # heads by default
+    assert not policy.config.goal_head and not policy.config.frame_position_head
+    assert policy.net.decode(torch.zeros(1, policy.config.lstm_dim), stochastic=False)[2] is None
+    windowed = cls(cls.config_class(device="cpu", training_mode="window", **feature_without(OBS_ENV_STATE)))
+    loss, info = windowed.forward({k: v for k, v in make_batch(4).items() if k != OBS_ENV_STATE})
+    assert torch.isfinite(loss) and "loss_obj_pos" not in info and "loss_delta_ee" in info
+    for flag, match in (
+        ({"goal_head": True}, "goal_head=true needs auxiliary targets"),
+        ({"frame_position_head": True}, "frame_position_head=true needs auxiliary targets"),
+        ({"aux_state_indices": [0, 1, 2, 3, 4, 5]}, "aux_state_indices needs"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            cls(cls.config_class(device="cpu", **flag, **feature_without(OBS_ENV_STATE)))
 
 
 def test_bad_config_values_are_refused() -> None:

@@ -16,7 +16,6 @@ from lerobot_ivmc.policies.bvmc.concrete_dropout import ConcreteDropoutHead
 from lerobot_ivmc.policies.bvmc.configuration_bvmc import DEFAULT_DATASET_SIZE, BVMCConfig
 from lerobot_ivmc.policies.bvmc.foresight import UncertaintyForesight, from_log_uncertainty
 from lerobot_ivmc.policies.bvmc.uncertainty import trace_cov_uncertainty
-from lerobot_ivmc.policies.vmc.configuration_vmc import ACTION_DIM
 from lerobot_ivmc.policies.vmc.modeling_vmc import HUB_KWARGS, VMCPolicy
 from lerobot_ivmc.policies.vmc.network import gripper_commands
 from lerobot_ivmc.recovery.threshold import ThresholdRecord
@@ -98,7 +97,7 @@ class BVMCPolicy(VMCPolicy):
         """Add an (untrained) uncertainty foresight head and mark it in the config, so checkpoints keep it."""
         self.config.foresight_enabled = True
         self.foresight = UncertaintyForesight(
-            self.config.lstm_dim, ACTION_DIM, self.config.foresight_hidden_dim
+            self.config.lstm_dim, self.config.action_dim, self.config.foresight_hidden_dim
         ).to(self.net.decoder.weight.device)
         return self.foresight
 

@@ -12,10 +12,12 @@ from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
 
 from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE, LEGACY_RENDER_STYLE, check_render_style
 
-# Layout of the action: delta end-effector command (3) followed by the gripper command in {-1, 0, +1}.
+# Layout of the action: a continuous command (the delta end effector, 3 for the Fetch and MetaWorld arms)
+# followed by the gripper command, a class of {-1, 0, +1} (`VMCConfig.action_dim`).
 DELTA_EE_DIM = 3
 ACTION_DIM = DELTA_EE_DIM + 1
-# Layout of `observation.environment_state`, the auxiliary targets: end-effector (3) then object (3) position.
+# The auxiliary targets: end-effector (3) then object (3) position, read from `observation.environment_state`
+# at `VMCConfig.aux_state_indices` (all six entries of a 6-D state, the Fetch tasks' layout).
 AUX_DIM = 6
 ROLLOUT_MEMORY_MODES = ("trajectory", "window")
 TRAINING_MODES = ("sequence", "window")
@@ -96,6 +98,11 @@ class VMCConfig(PreTrainedConfig):
             head makes the CNN find the cube (and the target) in every frame. A training target only, never
             used to act; on by default (it made the policies reach the cube 2 to 4 times sooner, README);
             false is the paper's network.
+        aux_state_indices: the entries of `observation.environment_state` the auxiliary heads learn, the
+            end effector's x, y, z then the object's (six). None: all six of a 6-D environment state (the
+            Fetch datasets); with another state (MetaWorld's 39-D: [0, 1, 2, 4, 5, 6], which
+            `lerobot-ivmc-train` passes for the plugin's MetaWorld datasets) or none, the auxiliary, goal and
+            frame position heads are off unless this is given. docs/metaworld.md.
         image_shift_pad: training augmentation: each window's frames are shifted together by a random
             offset of up to this many pixels per axis (DrQ / RAD random shift); 0 disables it.
         optimizer_lr: Adam learning rate; None (the default): 6e-4 in sequence training, 3e-4 in window
@@ -136,7 +143,8 @@ class VMCConfig(PreTrainedConfig):
     chunk_memory: str = "stored"
     rollout_memory: str | None = None
     goal_head: bool | None = None
-    frame_position_head: bool = True
+    frame_position_head: bool | None = None
+    aux_state_indices: list[int] | None = None
 
     # Training augmentation (4 px of 64, as the usual 84 -> 76 random crops of pixel-based imitation).
     image_shift_pad: int = 4
@@ -177,8 +185,22 @@ class VMCConfig(PreTrainedConfig):
             )
         if self.chunk_memory not in CHUNK_MEMORY_MODES:
             raise ValueError(f"chunk_memory must be one of {CHUNK_MEMORY_MODES}, got {self.chunk_memory!r}.")
+        # Heads left to their defaults are switched off for a dataset without auxiliary targets
+        # (`validate_features`); asked for by name, they are refused there instead.
+        self._default_heads = {
+            name for name in ("goal_head", "frame_position_head") if getattr(self, name) is None
+        }
         if self.goal_head is None:
             self.goal_head = self.training_mode == "sequence"
+        if self.frame_position_head is None:
+            self.frame_position_head = True
+        if self.aux_state_indices is not None and (
+            len(self.aux_state_indices) != AUX_DIM or any(int(i) < 0 for i in self.aux_state_indices)
+        ):
+            raise ValueError(
+                f"aux_state_indices must be {AUX_DIM} entries of observation.environment_state (end effector "
+                f"x, y, z, then the object's), got {self.aux_state_indices}."
+            )
         if self.optimizer_lr is None:
             self.optimizer_lr = SEQUENCE_LR if self.training_mode == "sequence" else WINDOW_LR
         if not self.optimizer_lr > 0:
@@ -256,20 +278,54 @@ class VMCConfig(PreTrainedConfig):
         shape = self.image_features[self.image_feature_key].shape
         if len(shape) != 3 or shape[0] != 3:
             raise ValueError(f"Expected an RGB image of shape (3, H, W), got {shape}.")
-        required = {OBS_STATE: None, OBS_ENV_STATE: (AUX_DIM,)}
-        for key, want in required.items():
-            if key not in inputs:
-                raise ValueError(
-                    f"VMC needs the feature {key!r} (state input, or the auxiliary EE and object positions "
-                    f"for {OBS_ENV_STATE!r}); the dataset provides {list(inputs)}."
-                )
-            if want is not None and tuple(inputs[key].shape) != want:
-                raise ValueError(f"{key!r} must have shape {want}, got {tuple(inputs[key].shape)}.")
-        if ACTION not in outputs or tuple(outputs[ACTION].shape) != (ACTION_DIM,):
+        if OBS_STATE not in inputs:
+            raise ValueError(f"VMC needs the state input {OBS_STATE!r}; the dataset provides {list(inputs)}.")
+        self._check_auxiliary_targets(inputs)
+        if ACTION not in outputs or len(outputs[ACTION].shape) != 1 or outputs[ACTION].shape[0] < 2:
             got = tuple(outputs[ACTION].shape) if ACTION in outputs else None
             raise ValueError(
-                f"VMC needs an {ACTION!r} of shape ({ACTION_DIM},) [dx, dy, dz, gripper]; got {got}."
+                f"VMC needs an {ACTION!r} of shape (D,), D >= 2: a continuous command, then the gripper "
+                f"(-1 close, 0 no-op, +1 open), as [dx, dy, dz, gripper]; got {got}."
             )
+
+    def _check_auxiliary_targets(self, inputs: dict) -> None:
+        """Refuse auxiliary heads the dataset has no targets for; switch off the heads left to their
+        defaults when it has none."""
+        if self.aux_indices is not None:
+            size = inputs[OBS_ENV_STATE].shape[0]
+            if max(self.aux_indices) >= size:
+                raise ValueError(
+                    f"aux_state_indices {list(self.aux_indices)} reach past {OBS_ENV_STATE!r} of size {size}."
+                )
+            return
+        if self.aux_state_indices is not None:
+            raise ValueError(
+                f"--policy.aux_state_indices needs {OBS_ENV_STATE!r} in the dataset; it has {list(inputs)}. "
+                "Drop the flag to train without auxiliary heads."
+            )
+        asked = [n for n in ("goal_head", "frame_position_head") if getattr(self, n)]
+        refused = [n for n in asked if n not in getattr(self, "_default_heads", set())]
+        if refused:
+            raise ValueError(
+                f"--policy.{refused[0]}=true needs auxiliary targets: a 6-D {OBS_ENV_STATE!r} or "
+                "--policy.aux_state_indices; set it false for this dataset."
+            )
+        self.goal_head = self.frame_position_head = False
+
+    @property
+    def action_dim(self) -> int:
+        """D, the size of the action: the continuous command, then the gripper command."""
+        return self.output_features[ACTION].shape[0]
+
+    @property
+    def aux_indices(self) -> tuple[int, ...] | None:
+        """The entries of `observation.environment_state` the auxiliary heads learn; None: no such heads."""
+        env_state = (self.input_features or {}).get(OBS_ENV_STATE)
+        if env_state is None:
+            return None
+        if self.aux_state_indices is not None:
+            return tuple(int(i) for i in self.aux_state_indices)
+        return tuple(range(AUX_DIM)) if tuple(env_state.shape) == (AUX_DIM,) else None
 
     @property
     def drop_n_last_frames(self) -> int:

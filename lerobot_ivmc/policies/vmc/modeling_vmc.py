@@ -149,14 +149,10 @@ class VMCPolicy(PreTrainedPolicy):
     ) -> tuple[tuple[Tensor, ...], Tensor, Tensor, FramePositions]:
         """Decoded outputs (each (B, ...)) on the last step of each window, with its action and targets, and
         the frame position head's predictions and targets on every frame of the windows (or None)."""
-        images, state, aux, action = (
-            batch[self.image_key],
-            batch[OBS_STATE],
-            batch[OBS_ENV_STATE],
-            batch[ACTION],
-        )
+        images, state, aux, action = batch[self.image_key], batch[OBS_STATE], self._aux(batch), batch[ACTION]
         if images.dim() == 4:
-            images, state, aux = images[:, None], state[:, None], aux[:, None]
+            images, state = images[:, None], state[:, None]
+            aux = None if aux is None else aux[:, None]
         if action.dim() == 3:
             action = action[:, -1]
         b, k = images.shape[:2]
@@ -165,7 +161,12 @@ class VMCPolicy(PreTrainedPolicy):
         e = self.net.unroll(s.unflatten(0, (b, k)), batch.get(f"{OBS_STATE}_is_pad"))
         frame_positions = None if positions is None else (positions, aux.flatten(0, 1))
         # Masks are always drawn in training (concrete dropout must not depend on `self.training`).
-        return self.net.decode(e, stochastic=True), action, aux[:, -1], frame_positions
+        return (
+            self.net.decode(e, stochastic=True),
+            action,
+            None if aux is None else aux[:, -1],
+            frame_positions,
+        )
 
     def _sequence_outputs(
         self, batch: dict[str, Tensor]
@@ -176,12 +177,7 @@ class VMCPolicy(PreTrainedPolicy):
         Only the real frames go through the CNN (once each); the LSTM runs over the whole chunk, from the
         memory `chunk_memory` says (stored: the state the frame before the chunk was last left in).
         """
-        images, state, aux, action = (
-            batch[self.image_key],
-            batch[OBS_STATE],
-            batch[OBS_ENV_STATE],
-            batch[ACTION],
-        )
+        images, state, aux, action = batch[self.image_key], batch[OBS_STATE], self._aux(batch), batch[ACTION]
         if images.dim() != 5 or action.dim() != 3:
             raise ValueError(
                 "Sequence training expects chunks: image (B, L, 3, H, W) and action (B, L, 4); got "
@@ -199,7 +195,12 @@ class VMCPolicy(PreTrainedPolicy):
             targets = torch.cat([aux, demo_end_object_position(aux, real)], dim=-1)
         outputs = self.net.decode(e, stochastic=True, with_goal=self.config.goal_head)
         frame_positions = None if positions is None else (positions, targets[real])
-        return outputs, action[real], targets[real], frame_positions
+        return outputs, action[real], None if targets is None else targets[real], frame_positions
+
+    def _aux(self, batch: dict[str, Tensor]) -> Tensor | None:
+        """The auxiliary targets (..., 6) of the batch's environment state; None for a net without them."""
+        indices = self.config.aux_indices
+        return None if indices is None else batch[OBS_ENV_STATE][..., list(indices)]
 
     def _unroll_chunks(self, s: Tensor, real: Tensor, batch: dict[str, Tensor]) -> Tensor:
         """The LSTM over (B, L, D_s) chunks -> (B, L, lstm_dim); with stored chunk memory, each chunk starts

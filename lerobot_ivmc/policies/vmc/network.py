@@ -15,7 +15,7 @@ import torch.nn.functional as F  # noqa: N812
 from torch import Tensor, nn
 
 from lerobot_ivmc.hardware import cpu_has_native_bf16
-from lerobot_ivmc.policies.vmc.configuration_vmc import AUX_DIM, DELTA_EE_DIM, GRIPPER_COMMANDS, VMCConfig
+from lerobot_ivmc.policies.vmc.configuration_vmc import AUX_DIM, GRIPPER_COMMANDS, VMCConfig
 
 NUM_GRIPPER_CLASSES = len(GRIPPER_COMMANDS)
 # One position (x, y, z) of `observation.environment_state`: the end effector's, then the object's.
@@ -72,8 +72,13 @@ class VisuomotorNet(nn.Module):
         self.map_size = (height, width)
         self.lstm = nn.LSTMCell((channels + state_dim) * height * width, config.lstm_dim)
         self.head = head
-        # delta EE (3) | gripper logits (3) | EE position (3) | object position (3)
-        self.decoder = nn.Linear(head.out_dim, DELTA_EE_DIM + NUM_GRIPPER_CLASSES + AUX_DIM)
+        # delta EE (3) | gripper logits (3) | EE position (3) | object position (3); the positions only for
+        # a dataset with auxiliary targets (`VMCConfig.aux_indices`).
+        self.has_aux = config.aux_indices is not None
+        self.command_dim = config.action_dim - 1  # the continuous part of the action (the delta EE)
+        self.decoder = nn.Linear(
+            head.out_dim, self.command_dim + NUM_GRIPPER_CLASSES + (AUX_DIM if self.has_aux else 0)
+        )
         # Object position at the demo's end (`goal_head`): a training target only, never used to act.
         self.goal_decoder = nn.Linear(head.out_dim, POSITION_DIM) if config.goal_head else None
         # EE and object positions (and with the goal head, the object's at the demo's end) from one frame's
@@ -160,19 +165,23 @@ class VisuomotorNet(nn.Module):
     def decode(
         self, e: Tensor, stochastic: bool, noise: list[Tensor] | None = None, with_goal: bool = False
     ) -> tuple[Tensor, ...]:
-        """Head and decoder: (..., lstm_dim) -> delta EE, gripper logits, EE position, object position.
+        """Head and decoder: (..., lstm_dim) -> delta EE (D - 1 of a D-dimensional action), gripper logits,
+        EE position, object position.
 
         Args:
             with_goal: also return the goal head's output (a net built with `goal_head`).
 
         Returns:
             (..., 3) delta EE, (..., 3) gripper logits, (..., 3) EE and (..., 3) object positions
-            (the positions in the normalised space of `observation.environment_state`), then with
-            `with_goal` (..., 3) the object's predicted position at the demo's end.
+            (the positions in the normalised space of `observation.environment_state`; None for a net
+            without auxiliary heads), then with `with_goal` (..., 3) the object's predicted position at the
+            demo's end.
         """
         features = self.head(e, stochastic, noise)
+        if not self.has_aux:
+            return (*self.decoder(features).split([self.command_dim, NUM_GRIPPER_CLASSES], -1), None, None)
         outputs = self.decoder(features).split(
-            [DELTA_EE_DIM, NUM_GRIPPER_CLASSES, POSITION_DIM, POSITION_DIM], dim=-1
+            [self.command_dim, NUM_GRIPPER_CLASSES, POSITION_DIM, POSITION_DIM], dim=-1
         )
         if not with_goal:
             return outputs

@@ -1,0 +1,133 @@
+"""What demo collection needs of each suite of tasks (the Fetch tasks, MetaWorld): names, rates, features,
+the instruction and the recorder class, looked up from the task name in one place.
+
+Light to import: neither simulator is loaded here (the recorders load theirs in the worker processes).
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+
+from lerobot_ivmc.datasets import features as fetch_features
+from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, MAX_EPISODE_STEPS, TASKS, gym_id
+from lerobot_ivmc.envs import metaworld as mw
+from lerobot_ivmc.envs.metaworld import env_state as mw_state
+from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE
+
+
+@dataclass(frozen=True)
+class DemoSuite:
+    """A suite's collection facts.
+
+    Args:
+        name: "ivmc" (the Fetch tasks) or "metaworld".
+        fps: the control rate the datasets record.
+        robot_type: LeRobot's `robot_type` of the datasets.
+        default_episode_steps: steps of a demo unless asked otherwise.
+        max_episode_steps: the longest demo (the rollouts' limit).
+        default_render_style: the camera's style unless asked otherwise.
+        recorder: "module:Class" of the recorder that runs the scripted expert.
+        scene_cells: whether frames carry the scene's grid cells (the Fetch tasks' spawn grids).
+        aux_state_indices: the entries of `observation.environment_state` the policies' auxiliary heads
+            learn (`VMCConfig.aux_state_indices`); None: the whole 6-D state.
+    """
+
+    name: str
+    fps: int
+    robot_type: str
+    default_episode_steps: int
+    max_episode_steps: int
+    default_render_style: str
+    recorder: str
+    scene_cells: bool
+    aux_state_indices: tuple[int, ...] | None = None
+
+    def check_episode_steps(self, flag: str, steps: int) -> int:
+        """Return `steps` if demos may last that long, else raise a ValueError naming `flag` and the range."""
+        low = DEMO_EPISODE_STEPS if self.name == "ivmc" else 1
+        if not low <= steps <= self.max_episode_steps:
+            raise ValueError(f"{flag} must be in [{low}, {self.max_episode_steps}] here, got {steps}.")
+        return steps
+
+    def gym_id(self, task: str) -> str:
+        return gym_id(task) if self.name == "ivmc" else mw.GYM_ID
+
+    def task_description(self, task: str) -> str:
+        if self.name == "metaworld":
+            return mw.task_description(task)
+        from lerobot_ivmc.envs import TASK_ENVS
+
+        return TASK_ENVS[task].task_description
+
+    def features(self, image_size: int, use_video: bool) -> dict[str, dict]:
+        """LeRobot features of the suite's demos (`LeRobotDataset.create(features=...)`)."""
+        if self.name == "ivmc":
+            return fetch_features.demo_features(image_size, use_video)
+        return metaworld_demo_features(image_size, use_video)
+
+    def recorder_class(self) -> type:
+        module, name = self.recorder.split(":")
+        return getattr(importlib.import_module(module), name)
+
+
+FETCH = DemoSuite(
+    name="ivmc",
+    fps=fetch_features.DEMO_FPS,
+    robot_type="fetch",
+    default_episode_steps=DEMO_EPISODE_STEPS,
+    max_episode_steps=MAX_EPISODE_STEPS,
+    default_render_style=DEFAULT_RENDER_STYLE,
+    recorder="lerobot_ivmc.datasets.expert_attempts:Recorder",
+    scene_cells=True,
+)
+METAWORLD = DemoSuite(
+    name="metaworld",
+    fps=mw.METAWORLD_FPS,
+    robot_type="sawyer",
+    default_episode_steps=mw.DEMO_EPISODE_STEPS,
+    max_episode_steps=mw.MAX_EPISODE_STEPS,
+    default_render_style="flat",
+    recorder="lerobot_ivmc.datasets.metaworld_attempts:MetaworldRecorder",
+    scene_cells=False,
+    aux_state_indices=mw_state.AUX_STATE_INDICES,
+)
+
+
+def suite_of(task: str) -> DemoSuite:
+    """The suite a task belongs to; a ValueError naming both suites' tasks for an unknown one."""
+    if task in TASKS:
+        return FETCH
+    if mw.is_metaworld_task(task):
+        return METAWORLD
+    raise ValueError(
+        f"Unknown task {task!r}; choose one of {TASKS} or a MetaWorld v3 task such as 'pick-place-v3'."
+    )
+
+
+def metaworld_demo_features(image_size: int, use_video: bool) -> dict[str, dict]:
+    """The features of `lerobot/metaworld_mt50` (`observation.image`, `observation.state` (4),
+    `observation.environment_state` (39), `action` (4)) and the scene seed of each frame."""
+    return {
+        fetch_features.METAWORLD_IMAGE_KEY: {
+            "dtype": "video" if use_video else "image",
+            "shape": (image_size, image_size, 3),
+            "names": ["height", "width", "channels"],
+        },
+        fetch_features.STATE_KEY: {
+            "dtype": "float32",
+            "shape": (mw_state.AGENT_POS_DIM,),
+            "names": list(mw_state.STATE_NAMES[: mw_state.AGENT_POS_DIM]),
+        },
+        fetch_features.ENV_STATE_KEY: {
+            "dtype": "float32",
+            "shape": (mw_state.STATE_DIM,),
+            "names": list(mw_state.STATE_NAMES),
+        },
+        fetch_features.ACTION_KEY: {
+            "dtype": "float32",
+            "shape": (4,),
+            "names": ["delta_x", "delta_y", "delta_z", "grab_effort"],
+        },
+        fetch_features.SCENE_SEED_KEY: {"dtype": "int64", "shape": (1,), "names": None},
+    }
