@@ -13,7 +13,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from lerobot_ivmc.datasets.record_config import RecordDemosConfig
-from lerobot_ivmc.envs import TASKS, check_demo_episode_steps
+from lerobot_ivmc.datasets.demo_suites import DemoSuite, suite_of
 from lerobot_ivmc.policies.vmc.configuration_vmc import VMCConfig
 from lerobot_ivmc.recovery.config import RANDOM_STREAMS, RECOVERY_MODES
 from lerobot_ivmc.recovery.foresight_training import ForesightConfig
@@ -187,7 +187,8 @@ class PipelineConfig:
     """The whole study for one task.
 
     Args:
-        task: push, pick_place or pick_reach.
+        task: push, pick_place or pick_reach, or a MetaWorld v3 task (e.g. pick-place-v3: the MetaWorld
+            suite, `--preset=metaworld`; docs/metaworld.md).
         preset: the preset this config started from (recorded, so a folder never mixes presets).
         output_dir: the study's folder (data, checkpoints, evals, results); default
             ``outputs/pipeline/<task>_<preset>``.
@@ -238,8 +239,20 @@ class PipelineConfig:
 
     def validate(self) -> None:
         """Refuse values no stage could run, with what to pass instead."""
-        if self.task and self.task not in TASKS:
-            raise ValueError(f"Unknown task {self.task!r}: choose --task from {TASKS}.")
+        if self.task:
+            try:
+                suite = suite_of(self.task)
+            except ValueError as error:
+                raise ValueError(f"--task: {error}") from None
+            # The suite's defaults for what the preset leaves unset (a Fetch preset sets both).
+            c = self.collect
+            c.env.render_style = c.env.render_style or suite.default_render_style
+            c.dataset.episode_steps = c.dataset.episode_steps or suite.default_episode_steps
+            if suite.name != "ivmc" and "anchor" in self.recovery_modes:
+                raise ValueError(
+                    "--recovery_modes=[...,anchor]: anchor is a planner for the Fetch tasks; drop it for "
+                    f"{self.task}."
+                )
         bad_fc = [n for n in self.train.num_fc_layers if n not in (1, 2)]
         if bad_fc or not self.train.num_fc_layers:
             raise ValueError(
@@ -347,7 +360,8 @@ class PipelineConfig:
         """Refuse values a later stage would refuse, before hours of earlier stages are spent."""
         policy = self.train.policy
         demo_steps = self.collect.dataset.episode_steps
-        check_demo_episode_steps("--collect.dataset.episode_steps", demo_steps)
+        if self.task:
+            self.suite.check_episode_steps("--collect.dataset.episode_steps", demo_steps)
         if not 1 <= policy.chunk_length <= demo_steps:
             raise ValueError(
                 f"--train.policy.chunk_length must be in [1, {demo_steps}] (the demos' length, "
@@ -404,6 +418,11 @@ class PipelineConfig:
                 "--collect.dataset.root is set by the study (<output_dir>/data); drop it, or pass "
                 "--output_dir to put the study elsewhere."
             )
+
+    @property
+    def suite(self) -> DemoSuite:
+        """The suite of the study's task (the Fetch tasks or MetaWorld)."""
+        return suite_of(self.task)
 
     @property
     def root(self) -> Path:

@@ -62,7 +62,7 @@ def table_rows(cfg: PipelineConfig, stages: list[Stage], fcs: list[int]) -> list
                 "subtasks": subtask_rates(info),
                 "paper": {
                     sub: {"rate": v[0], "stderr": v[1]}
-                    for sub, v in PAPER_TABLE[cfg.task][fc].get(method, {}).items()
+                    for sub, v in PAPER_TABLE.get(cfg.task, {}).get(fc, {}).get(method, {}).items()
                 },
             }
             success = list(row["subtasks"])[-1]

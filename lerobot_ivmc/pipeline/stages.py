@@ -18,7 +18,7 @@ from pathlib import Path
 from lerobot.configs.policies import PreTrainedConfig
 
 from lerobot_ivmc.constants import EVAL_INFO_FILE, LAST_PRETRAINED_MODEL, PRETRAINED_MODEL_DIR
-from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, task_env_class
+from lerobot_ivmc.envs import task_env_class
 from lerobot_ivmc.evaluation.perception_check import RECORD_FILE as PERCEPTION_RECORD
 from lerobot_ivmc.hardware import cpu_has_native_bf16
 from lerobot_ivmc.pipeline.config import POLICY_TYPES, PipelineConfig
@@ -36,6 +36,8 @@ from lerobot_ivmc.pipeline.stage_names import (
 from lerobot_ivmc.recovery.config import RecoveryConfig
 
 CHECKPOINT = LAST_PRETRAINED_MODEL
+# The `--env.type` of each suite's tasks.
+ENV_TYPES = {"ivmc": "ivmc", "metaworld": "meta_world"}
 CUDA = "cuda"
 TRAIN_CONFIG = CHECKPOINT / "train_config.json"
 
@@ -190,10 +192,10 @@ def collect_stage(cfg: PipelineConfig, data: Path, repo_id: str) -> Stage:
                 "private": c.dataset.private,
             },
         ),
-        # Only when not the default, so the studies of 100-step demos keep their fingerprints.
+        # Only when not the suite's default, so the studies of 100-step Fetch demos keep their fingerprints.
         *(
             [f"--dataset.episode_steps={c.dataset.episode_steps}"]
-            if c.dataset.episode_steps != DEMO_EPISODE_STEPS
+            if c.dataset.episode_steps != cfg.suite.default_episode_steps
             else []
         ),
         *flags("", {"num_workers": c.num_workers, "seed": c.seed, "action_noise": c.action_noise}),
@@ -226,7 +228,7 @@ def chain_flags(cfg: PipelineConfig) -> ChainFlags:
     c = cfg.collect
     # The camera of the demos is the camera of every later stage: the policies are refused in another.
     env_flags = [
-        "--env.type=ivmc",
+        f"--env.type={ENV_TYPES[cfg.suite.name]}",
         f"--env.task={cfg.task}",
         f"--env.episode_length={cfg.episode_length}",
         *flags("env.", {"image_size": c.env.image_size, "render_style": c.env.render_style}),
@@ -248,8 +250,11 @@ def chain_stages(cfg: PipelineConfig, fc: int, train_seed: int | None, chain: Ch
     an extra seed carry its suffix (`foresight_fc1_seed2000`); those of the main seed have none."""
     stages, gates = [], []
     for training in train_stages(cfg, fc, chain.data, chain.repo_id, train_seed):
+        stages.append(training)
+        if cfg.suite.name != "ivmc":  # the perception check reads the Fetch tasks' object position
+            continue
         check = perception_stage(cfg, training, chain.env_flags, gate=train_seed is None)
-        stages += [training, check]
+        stages.append(check)
         gates += [check.name] if train_seed is None else []
     foresight = foresight_stage(cfg, fc, train_seed, chain)
     threshold = threshold_stage(cfg, fc, train_seed, chain, foresight)
@@ -338,9 +343,9 @@ def row_stages(
     rows += [("bvmc", bvmc, mode, threshold.name) for mode in cfg.recovery_modes]
     # anchor reads a pushed object, or one held at the end, where the frame position head places it (and the
     # latter's goal too): a policy without that head reads them from the memory's heads instead.
-    task = task_env_class(cfg.task)
     anchor_flags = []
-    if cfg.train.policy.frame_position_head is False:
+    task = task_env_class(cfg.task) if "anchor" in cfg.recovery_modes else None
+    if task is not None and cfg.train.policy.frame_position_head is False:
         if not task.object_picked or task.object_held_at_end:
             anchor_flags.append("--recovery.anchor_object=memory")
         if task.object_held_at_end:

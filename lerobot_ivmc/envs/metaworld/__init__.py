@@ -49,7 +49,8 @@ def check_metaworld_task(task: str | None) -> str:
     if not is_metaworld_task(task):
         examples = ", ".join(("pick-place-v3", "push-v3", "drawer-open-v3", "peg-insert-side-v3"))
         raise ValueError(
-            f"Unknown MetaWorld task {task!r}; use a v3 name of LeRobot's metaworld_config.json, e.g. {examples}."
+            f"Unknown MetaWorld task {task!r}; use a v3 name of LeRobot's metaworld_config.json, e.g. "
+            f"{examples}."
         )
     return task
 
