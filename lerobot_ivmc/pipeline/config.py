@@ -360,8 +360,9 @@ class PipelineConfig:
         """Refuse values a later stage would refuse, before hours of earlier stages are spent."""
         policy = self.train.policy
         demo_steps = self.collect.dataset.episode_steps
-        if self.task:
-            self.suite.check_episode_steps("--collect.dataset.episode_steps", demo_steps)
+        if demo_steps is None:  # no task yet (the command refuses that): the checks below need its suite
+            return
+        self.suite.check_episode_steps("--collect.dataset.episode_steps", demo_steps)
         if not 1 <= policy.chunk_length <= demo_steps:
             raise ValueError(
                 f"--train.policy.chunk_length must be in [1, {demo_steps}] (the demos' length, "

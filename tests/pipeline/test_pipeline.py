@@ -176,7 +176,8 @@ def test_extra_training_seeds_add_stages_and_leave_the_study_s_own_untouched(tmp
 
 
 def test_bad_input_is_refused_with_what_to_do(capsys: pytest.CaptureFixture) -> None:
-    with pytest.raises(ValueError, match=r"Unknown preset 'huge'.*\['lite', 'paper', 'smoke'\]"):
+    presets = r"\['lite', 'metaworld', 'metaworld_smoke', 'paper', 'smoke'\]"
+    with pytest.raises(ValueError, match=rf"Unknown preset 'huge'.*{presets}"):
         parse_config(["--task=push", "--preset=huge"])
     with pytest.raises(ValueError, match="Give the task"):
         parse_config(["--preset=smoke"])

@@ -1,0 +1,165 @@
+"""MetaWorld demos from MetaWorld's scripted policies through `lerobot-ivmc-collect`, in the layout of the
+hub's `lerobot/metaworld_mt50`, and `vmc` / `bvmc` trained on them by LeRobot's own commands."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+from lerobot_ivmc.datasets.collect import collect_demos
+from lerobot_ivmc.datasets.collect_config import CollectConfig
+
+TASK = "push-v3"
+HUB_KEYS = ("observation.image", "observation.state", "observation.environment_state", "action")
+
+
+def console_script(name: str) -> str:
+    return str(Path(sys.executable).with_name(name))
+
+
+def collect(root: Path, image_size: int = 64, episodes: int = 2) -> CollectConfig:
+    cfg = CollectConfig(
+        task=TASK,
+        num_episodes=episodes,
+        root=root,
+        repo_id=f"local/{TASK}",
+        image_size=image_size,
+        num_workers=0,
+        action_noise=0.1,
+        progress=False,
+    )
+    collect_demos(cfg)
+    return cfg
+
+
+@pytest.fixture(scope="module")
+def demos(tmp_path_factory) -> Path:
+    root = tmp_path_factory.mktemp("metaworld") / "demos"
+    collect(root)
+    return root
+
+
+def test_demos_load_with_lerobot_in_the_hub_layout(demos: Path) -> None:
+    dataset = LeRobotDataset(f"local/{TASK}", root=demos)
+    assert dataset.fps == 80 and dataset.num_episodes == 2 and dataset.meta.robot_type == "sawyer"
+    frame = dataset[0]
+    assert set(HUB_KEYS) <= set(frame)
+    assert frame["observation.image"].shape == (3, 64, 64)
+    assert frame["observation.state"].shape == (4,) and frame["observation.environment_state"].shape == (39,)
+    actions = np.stack([dataset[i]["action"].numpy() for i in range(0, len(dataset), 7)])
+    assert actions.shape[1] == 4 and np.abs(actions).max() <= 1.0  # clipped to the action space
+    assert frame["task"] == "Push the puck to a goal"
+    assert dataset.meta.episodes["length"][0] == 150
+
+
+def test_the_same_arguments_give_byte_identical_demos(demos: Path, tmp_path: Path) -> None:
+    again = tmp_path / "again"
+    collect(again)
+    for path in sorted((demos / "data").glob("*/*.parquet")):
+        first = pq.read_table(path).drop(["observation.image"])
+        second = pq.read_table(again / path.relative_to(demos)).drop(["observation.image"])
+        assert first.equals(second)
+    images = [pq.read_table(p, columns=["observation.image"]) for p in (demos / "data").glob("*/*.parquet")]
+    images_again = [
+        pq.read_table(again / p.relative_to(demos), columns=["observation.image"])
+        for p in (demos / "data").glob("*/*.parquet")
+    ]
+    assert all(a.equals(b) for a, b in zip(images, images_again, strict=True))
+
+
+def test_stock_lerobot_train_and_eval_run_bvmc_on_metaworld(demos: Path, tmp_path: Path) -> None:
+    out = tmp_path / "train"
+    train = [
+        console_script("lerobot-train"),
+        "--policy.type=bvmc",
+        "--policy.device=cpu",
+        f"--dataset.repo_id=local/{TASK}",
+        f"--dataset.root={demos}",
+        "--batch_size=2",
+        "--steps=2",
+        "--save_freq=2",
+        "--num_workers=0",
+        "--eval_freq=0",
+        "--policy.push_to_hub=false",
+        "--wandb.enable=false",
+        "--policy.chunk_length=150",
+        "--policy.aux_state_indices=[0,1,2,4,5,6]",
+        "--policy.render_style=flat",
+        f"--output_dir={out}",
+    ]
+    result = subprocess.run(train, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr[-3000:]
+    checkpoint = out / "checkpoints" / "last" / "pretrained_model"
+    evaluate = [
+        console_script("lerobot-eval"),
+        f"--policy.path={checkpoint}",
+        "--env.type=meta_world",
+        f"--env.task={TASK}",
+        "--env.episode_length=5",
+        "--eval.n_episodes=1",
+        "--eval.batch_size=1",
+        f"--output_dir={tmp_path / 'eval'}",
+    ]
+    result = subprocess.run(evaluate, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert (tmp_path / "eval" / "eval_info.json").exists()
+
+
+def test_a_render_style_other_than_the_checkpoints_is_refused(demos: Path, tmp_path: Path) -> None:
+    out = tmp_path / "train"
+    train = [
+        console_script("lerobot-ivmc-train"),
+        "--policy.type=vmc",
+        "--policy.device=cpu",
+        f"--dataset.repo_id=local/{TASK}",
+        f"--dataset.root={demos}",
+        "--batch_size=2",
+        "--steps=1",
+        "--save_freq=1",
+        "--num_workers=0",
+        "--eval_freq=0",
+        "--policy.push_to_hub=false",
+        "--wandb.enable=false",
+        "--policy.chunk_length=150",
+        f"--output_dir={out}",
+    ]
+    result = subprocess.run(train, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr[-3000:]
+    checkpoint = out / "checkpoints" / "last" / "pretrained_model"
+    config = json.loads((checkpoint / "config.json").read_text())
+    assert config["render_style"] == "flat" and config["trained_task"] == TASK
+    assert config["aux_state_indices"] == [0, 1, 2, 4, 5, 6]  # the hand and the object, from the dataset
+    evaluate = [
+        console_script("lerobot-ivmc-eval"),
+        f"--policy.path={checkpoint}",
+        "--env.type=meta_world",
+        f"--env.task={TASK}",
+        "--env.render_style=fast",
+        "--eval.n_episodes=1",
+        "--eval.batch_size=1",
+        "--seed=0",
+        f"--output_dir={tmp_path / 'eval'}",
+    ]
+    result = subprocess.run(evaluate, capture_output=True, text=True, timeout=600)
+    assert result.returncode != 0
+    lines = [line for line in result.stderr.strip().splitlines() if "render style" in line]
+    assert lines and "pass --env.render_style=flat" in lines[-1]
+
+
+def test_collecting_an_unknown_task_is_refused_in_one_line(tmp_path: Path) -> None:
+    result = subprocess.run(
+        [console_script("lerobot-ivmc-collect"), "--env.task=push-v9", "--dataset.num_episodes=1"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=tmp_path,
+    )
+    assert result.returncode == 2
+    assert "Unknown task 'push-v9'" in result.stderr.strip().splitlines()[-1]

@@ -1,0 +1,47 @@
+"""The embodiment layer: recovery's moves in a robot's own action scale and gripper commands."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from lerobot_ivmc.envs.embodiment import HOLD, Embodiment
+from lerobot_ivmc.envs.fetch_env import EMBODIMENT as FETCH
+from lerobot_ivmc.envs.metaworld.embodiment import SAWYER
+from lerobot_ivmc.recovery.manoeuvres import MoveToInit, RandomMoves
+
+# A robot unlike both: 2 cm per action unit, the gripper opened by 0.5 and closed by -0.5, no no-op.
+FAKE = Embodiment("fake", 0.02, 0.5, -0.5, None, (3, 4, 5), (0,))
+
+
+def test_a_move_is_scaled_by_the_robots_metres_per_action_unit() -> None:
+    grip, target = np.zeros(3), np.array([0.01, -0.03, 0.0])
+    np.testing.assert_allclose(FAKE.move_towards(grip, target, FAKE.gripper_open), [0.5, -1.0, 0.0, 0.5])
+    np.testing.assert_allclose(SAWYER.move_towards(grip, target)[:3], [1.0, -1.0, 0.0])
+    np.testing.assert_allclose(FETCH.move_towards(grip, target)[:3], [0.2, -0.6, 0.0])
+    assert np.isnan(FAKE.move_towards(grip, target)[3])  # the fingers left as they are
+
+
+def test_init_opens_the_fingers_with_the_robots_own_command_and_reaches_its_target() -> None:
+    rng = np.random.default_rng(0)
+    move = MoveToInit(
+        np.array([0.1, 0.0, 0.2]), radius=0.0, steps=50, tolerance=0.001, rng=rng, embodiment=FAKE
+    )
+    grip = np.zeros(3)
+    for _ in range(20):
+        if move.advance(grip) is not None:
+            break
+        action = move.act(grip, lambda: None)
+        assert action[3] == FAKE.gripper_open
+        grip = grip + action[:3] * FAKE.metres_per_action_unit
+    assert move.finished and np.allclose(grip, [0.1, 0.0, 0.2], atol=0.001)
+
+
+def test_holding_the_fingers_repeats_the_last_command_where_the_robot_has_no_no_op() -> None:
+    last = np.array([SAWYER.gripper_close, SAWYER.gripper_open])
+    np.testing.assert_array_equal(SAWYER.hold(last), last)
+    np.testing.assert_array_equal(FETCH.hold(np.array([-1.0, 1.0])), [0.0, 0.0])
+    # Fetch remembers the last command other than its no-op; the Sawyer every command.
+    np.testing.assert_array_equal(FETCH.remember(np.array([-1.0, 1.0]), np.array([0.0, -1.0])), [-1.0, -1.0])
+    np.testing.assert_array_equal(SAWYER.remember(last, np.array([0.3, -1.0])), [0.3, -1.0])
+    moves = RandomMoves(3, 1.0, np.random.default_rng(0))
+    assert np.isnan(moves.act(np.zeros(3), lambda: None)[3]) and np.isnan(HOLD)
