@@ -112,6 +112,44 @@ def test_stock_lerobot_train_and_eval_run_bvmc_on_metaworld(demos: Path, tmp_pat
     assert (tmp_path / "eval" / "eval_info.json").exists()
 
 
+def test_stock_lerobot_train_runs_bvmc_on_480_px_hub_layout_frames_resized_for_the_network(
+    tmp_path: Path,
+) -> None:
+    hub_like = tmp_path / "hub_like"
+    collect(hub_like, image_size=480, episodes=1)
+    image = LeRobotDataset(f"local/{TASK}", root=hub_like).meta.features["observation.image"]
+    assert tuple(image["shape"]) == (480, 480, 3)
+    out = tmp_path / "train"
+    train = [
+        console_script("lerobot-train"),
+        "--policy.type=bvmc",
+        "--policy.device=cpu",
+        f"--dataset.repo_id=local/{TASK}",
+        f"--dataset.root={hub_like}",
+        "--batch_size=1",
+        "--steps=2",
+        "--save_freq=2",
+        "--num_workers=0",
+        "--eval_freq=0",
+        "--policy.push_to_hub=false",
+        "--wandb.enable=false",
+        "--policy.chunk_length=150",
+        "--policy.image_size=64",
+        f"--output_dir={out}",
+    ]
+    result = subprocess.run(train, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr[-3000:]
+    checkpoint = out / "checkpoints" / "last" / "pretrained_model"
+    from lerobot_ivmc.policies import BVMCPolicy
+
+    policy = BVMCPolicy.from_pretrained(checkpoint)
+    assert policy.net.map_size == (4, 4)  # built for 64-px frames: 64 -> 32 -> 16 -> 8 -> 4
+    steps = json.loads((checkpoint / "policy_preprocessor.json").read_text())["steps"]
+    assert {"registry_name": "ivmc_resize_images", "config": {"size": 64, "keys": ["observation.image"]}} in [
+        {k: step.get(k) for k in ("registry_name", "config")} for step in steps
+    ]
+
+
 def test_a_render_style_other_than_the_checkpoints_is_refused(demos: Path, tmp_path: Path) -> None:
     out = tmp_path / "train"
     train = [

@@ -56,6 +56,9 @@ class VMCConfig(PreTrainedConfig):
         render_style: how the training frames were drawn (`lerobot_ivmc.envs.render_styles`);
             `lerobot-ivmc-train` takes it from the dataset's collection record, and the ivmc commands refuse
             an env of another `--env.render_style`. With plain `lerobot-train`, pass the dataset's style.
+        image_size: the side the network takes; the pre-processor resizes the camera frames to it
+            (`image_resize.ResizeImagesProcessorStep`), e.g. 64 for `lerobot/metaworld_mt50`'s 480-px frames.
+            None: the dataset's size.
         conv_channels: filters of the 3x3 stride-2 conv layers (each halves the image side).
         lstm_dim: LSTM width, also the size of the embedding e_t.
         fc_dim: width of the fully connected layers after the LSTM.
@@ -132,6 +135,7 @@ class VMCConfig(PreTrainedConfig):
 
     # Architecture. Smaller than GEECO's 8-layer CNN at 256x256 so that 64x64 frames train on 2 CPU cores:
     # 64 -> 32 -> 16 -> 8 -> 4, a 4x4x64 map, concatenated with the tiled state.
+    image_size: int | None = None
     conv_channels: tuple[int, ...] = (32, 32, 64, 64)
     lstm_dim: int = 128
     fc_dim: int = 128
@@ -169,6 +173,11 @@ class VMCConfig(PreTrainedConfig):
         for name in ("lstm_dim", "fc_dim"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)}.")
+        if self.image_size is not None and self.image_size < 2 ** len(self.conv_channels):
+            raise ValueError(
+                f"image_size must be at least {2 ** len(self.conv_channels)} pixels (the CNN halves it "
+                f"{len(self.conv_channels)} times), got {self.image_size}."
+            )
         if self.image_shift_pad < 0:
             raise ValueError(f"image_shift_pad must be >= 0 pixels, got {self.image_shift_pad}.")
         if self.scheduler_warmup_steps < 0 or self.scheduler_decay_steps < 0:

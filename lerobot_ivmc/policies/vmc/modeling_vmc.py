@@ -61,6 +61,8 @@ class VMCPolicy(PreTrainedPolicy):
         check_chunk_length(config, dataset_meta)
         self.image_key = config.image_feature_key
         image_shape = tuple(config.image_features[self.image_key].shape)
+        if config.image_size is not None:  # the pre-processor resizes the frames to it
+            image_shape = (image_shape[0], config.image_size, config.image_size)
         state_dim = config.input_features[OBS_STATE].shape[0]
         self.net = VisuomotorNet(config, image_shape, state_dim, self._make_head(config, dataset_meta))
         self._memory: Memory | None = None

@@ -18,6 +18,7 @@ from lerobot.processor.converters import policy_action_to_transition, transition
 from lerobot.utils.constants import POLICY_POSTPROCESSOR_DEFAULT_NAME, POLICY_PREPROCESSOR_DEFAULT_NAME
 
 from lerobot_ivmc.policies.vmc.configuration_vmc import VMCConfig
+from lerobot_ivmc.policies.vmc.image_resize import ResizeImagesProcessorStep
 
 
 def make_vmc_pre_post_processors(
@@ -27,7 +28,8 @@ def make_vmc_pre_post_processors(
     PolicyProcessorPipeline[dict[str, Any], dict[str, Any]],
     PolicyProcessorPipeline[PolicyAction, PolicyAction],
 ]:
-    """Pipelines around the model: rename, batch, device, normalise in; unnormalise, to CPU out.
+    """Pipelines around the model: rename, batch, device, normalise (and with `image_size`, resize the
+    frames) in; unnormalise, to CPU out.
 
     With the default `normalization_mapping`, images stay in [0, 1], state and the auxiliary targets
     (`observation.environment_state`) are standardised, and the action passes through untouched (its
@@ -52,6 +54,8 @@ def make_vmc_pre_post_processors(
             device=config.device,
         ),
     ]
+    if config.image_size is not None:
+        input_steps.append(ResizeImagesProcessorStep(size=config.image_size, keys=[config.image_feature_key]))
     output_steps = [
         UnnormalizerProcessorStep(
             features=config.output_features, norm_map=config.normalization_mapping, stats=dataset_stats

@@ -1,0 +1,108 @@
+"""MetaWorld: env steps/s of the plugin's `meta_world` env (64-px "flat" camera) against LeRobot 0.4.4's own
+`MetaworldEnv` (480 x 480 frames) and against physics only; the scripted policies' success rate with the
+demos' noise; and `lerobot-ivmc-collect`'s demos per minute. Every ratio is measured in this one run.
+
+python benchmarks/bench_metaworld.py                      # 10 scripted episodes per task, 20 demos
+python benchmarks/bench_metaworld.py --episodes 50 --demos 50
+"""
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from lerobot.envs.metaworld import MetaworldEnv
+
+from lerobot_ivmc.datasets.collect import collect_demos
+from lerobot_ivmc.datasets.collect_config import CollectConfig
+from lerobot_ivmc.datasets.expert_attempts import ActionNoise
+from lerobot_ivmc.envs.metaworld.env import SeededMetaworldEnv
+
+TASKS = ("pick-place-v3", "push-v3", "drawer-open-v3", "peg-insert-side-v3")
+NOISE = 0.1  # the metaworld preset's demo noise
+
+
+def rate(step, n_steps: int) -> float:
+    """Steps/s of `step(action)` under random actions."""
+    actions = np.random.default_rng(0).uniform(-1, 1, size=(n_steps, 4)).astype(np.float32)
+    start = time.perf_counter()
+    for action in actions:
+        step(action)
+    return n_steps / (time.perf_counter() - start)
+
+
+def step_rates(task: str, n_steps: int) -> dict[str, float]:
+    plugin = SeededMetaworldEnv(task, terminate_on_success=False)
+    plugin.reset(seed=0)
+    lerobot = MetaworldEnv(task=task, obs_type="pixels_agent_pos")
+    lerobot.reset(seed=0)
+    rates = {
+        "physics only": rate(lambda a: plugin.raw_env.step(a), n_steps),
+        "meta_world, 64-px flat camera": rate(plugin.step, n_steps),
+        "LeRobot's MetaworldEnv (480 px)": rate(lerobot.step, n_steps // 5),
+    }
+    plugin.close()
+    lerobot.close()
+    return rates
+
+
+def scripted_success(task: str, episodes: int, steps: int = 150) -> tuple[int, list[int]]:
+    """Successes at the demo's last step, and the steps to first success, of the noisy scripted policy."""
+    env = SeededMetaworldEnv(task, split="train", terminate_on_success=False)
+    wins, first = 0, []
+    for seed in range(episodes):
+        observation, _ = env.reset(seed=seed)
+        noise, reached = ActionNoise(NOISE, seed), None
+        for t in range(steps):
+            action = np.clip(env.expert_policy.get_action(observation["environment_state"]), -1, 1)
+            observation, _, _, _, info = env.step(noise(action))
+            reached = t + 1 if reached is None and info["is_success"] else reached
+        wins += env.success_now
+        first += [reached] if reached is not None else []
+    env.close()
+    return wins, first
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--episodes", type=int, default=10, help="scripted episodes per task")
+    parser.add_argument("--demos", type=int, default=20, help="demos for the collection rate")
+    parser.add_argument("--steps", type=int, default=500, help="env steps per rate")
+    args = parser.parse_args()
+
+    rates = step_rates("pick-place-v3", args.steps)
+    print("pick-place-v3, one env, one process (steps/s):")
+    for name, value in rates.items():
+        print(f"  {name:<34}: {value:8.1f}")
+    lerobot = rates["LeRobot's MetaworldEnv (480 px)"]
+    ours = rates["meta_world, 64-px flat camera"]
+    print(f"  meta_world / LeRobot's MetaworldEnv: {ours / lerobot:5.1f}x")
+    print(f"  meta_world / physics only:           {ours / rates['physics only']:5.2f}x")
+
+    print(f"scripted policies, N(0, {NOISE}) xyz noise, 150-step demos, {args.episodes} train scenes each:")
+    for task in TASKS:
+        wins, first = scripted_success(task, args.episodes)
+        median = int(np.median(first)) if first else None
+        print(f"  {task:<20}: {wins}/{args.episodes} done at step 150, median first success at step {median}")
+
+    with tempfile.TemporaryDirectory() as tmp:
+        for workers in (0, 2):
+            cfg = CollectConfig(
+                task="pick-place-v3",
+                num_episodes=args.demos,
+                root=Path(tmp) / f"demos_{workers}",
+                num_workers=workers,
+                action_noise=NOISE,
+                progress=False,
+            )
+            start = time.perf_counter()
+            collect_demos(cfg)
+            minutes = (time.perf_counter() - start) / 60
+            print(
+                f"lerobot-ivmc-collect, pick-place-v3, {workers} workers: {args.demos / minutes:.1f} demos/min"
+            )
+
+
+if __name__ == "__main__":
+    main()
