@@ -12,8 +12,8 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from lerobot_ivmc.datasets.record_config import RecordDemosConfig
 from lerobot_ivmc.datasets.demo_suites import DemoSuite, suite_of
+from lerobot_ivmc.datasets.record_config import RecordDemosConfig
 from lerobot_ivmc.policies.vmc.configuration_vmc import VMCConfig
 from lerobot_ivmc.recovery.config import RANDOM_STREAMS, RECOVERY_MODES
 from lerobot_ivmc.recovery.foresight_training import ForesightConfig
