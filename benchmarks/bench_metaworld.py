@@ -99,9 +99,8 @@ def main() -> None:
             start = time.perf_counter()
             collect_demos(cfg)
             minutes = (time.perf_counter() - start) / 60
-            print(
-                f"lerobot-ivmc-collect, pick-place-v3, {workers} workers: {args.demos / minutes:.1f} demos/min"
-            )
+            rate_per_minute = args.demos / minutes
+            print(f"lerobot-ivmc-collect, {workers} workers: {rate_per_minute:.1f} pick-place-v3 demos/min")
 
 
 if __name__ == "__main__":
