@@ -475,7 +475,10 @@ def train_stages(
 # Policy fields a training takes from its dataset, not from its command or the defaults: their input (the
 # collect stage) is in the fingerprint already. As settings they would change every training's fingerprint
 # when such a field is added (`trained_task` did), redoing the trainings of every study begun before.
-FROM_THE_DATASET = ("trained_task",)
+FROM_THE_DATASET = ("trained_task", "aux_state_indices")
+# Fields added since studies were recorded, left out of the settings at the value that acts as before they
+# existed, so that those studies keep their fingerprints.
+OMITTED_AT = {"image_size": None}
 
 
 def resolved_policy_config(policy_type: str, fc: int, given: dict) -> dict:
@@ -483,7 +486,11 @@ def resolved_policy_config(policy_type: str, fc: int, given: dict) -> dict:
     from its dataset) a training gets from `given` and the policy's current defaults, as JSON values."""
     config = PreTrainedConfig.get_choice_class(policy_type)(device="cpu", num_fc_layers=fc, **given)
     left_out = {f.name for f in fields(PreTrainedConfig)} | set(FROM_THE_DATASET)
-    own = {name: value for name, value in asdict(config).items() if name not in left_out}
+    own = {
+        name: value
+        for name, value in asdict(config).items()
+        if name not in left_out and not (name in OMITTED_AT and value == OMITTED_AT[name])
+    }
     return json.loads(json.dumps(own, default=str))
 
 

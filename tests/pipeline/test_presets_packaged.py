@@ -14,7 +14,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 def test_the_wheel_holds_every_preset(tmp_path: Path) -> None:
     presets = sorted(p.name for p in PRESETS_DIR.glob("*.yaml"))
-    assert presets == ["lite.yaml", "paper.yaml", "smoke.yaml"]
+    assert presets == ["lite.yaml", "metaworld.yaml", "metaworld_smoke.yaml", "paper.yaml", "smoke.yaml"]
     subprocess.run(
         [
             sys.executable,
