@@ -38,7 +38,7 @@ def steps_per_second(
     if xml_framebuffer:
         env.model.vis.global_.offwidth, env.model.vis.global_.offheight = 640, 480
         env.model.vis.quality.offsamples = RENDER_STYLES[render_style].multisamples
-        env._renderers[image_size] = mujoco.Renderer(env.model, image_size, image_size)
+        env.renderers._renderers[image_size] = mujoco.Renderer(env.model, image_size, image_size)
     env.reset(seed=0)
     rng = np.random.default_rng(0)
     actions = rng.uniform(-1, 1, size=(n_steps, 4)).astype(np.float32)

@@ -108,15 +108,12 @@ class Recorder:
         if not success:
             staging.write_failure(self.episodes_dir, attempt)
             return attempt, False
-        episode = staging.StagedEpisode(
-            attempt=attempt,
-            scene_seed=seed,
-            object_cell=int(info["scene_object_cell"]),
-            target_cell=int(info["scene_target_cell"]),
-            images=np.stack(images).astype(np.uint8),
-            state=np.stack(states).astype(np.float32),
-            environment_state=np.stack(env_states).astype(np.float32),
-            action=np.stack(actions).astype(np.float32),
+        episode = staging.StagedEpisode.from_steps(
+            attempt,
+            seed,
+            (images, states, env_states, actions),
+            int(info["scene_object_cell"]),
+            int(info["scene_target_cell"]),
         )
         staging.write_episode(self.episodes_dir, episode)
         return attempt, True

@@ -4,17 +4,16 @@ collection's worker processes; the MetaWorld counterpart of `expert_attempts.Rec
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from lerobot_ivmc.datasets import staging
-from lerobot_ivmc.datasets.expert_attempts import ActionNoise, attempt_seed
+from lerobot_ivmc.datasets.expert_attempts import ActionNoise, Recorder, attempt_seed
 from lerobot_ivmc.envs.metaworld import DEMO_EPISODE_STEPS, scripted_policy_name
 
 
 @dataclass
-class MetaworldRecorder:
+class MetaworldRecorder(Recorder):
     """A seeded MetaWorld env and the task's scripted policy that record attempts into a staging folder.
 
     The recorded action is the policy's, clipped to the action space (its raw actions exceed [-1, 1]; the
@@ -25,12 +24,6 @@ class MetaworldRecorder:
     Args: as `expert_attempts.Recorder` (`task` a MetaWorld v3 name; `action_noise` in action units).
     """
 
-    task: str
-    image_size: int
-    split: str
-    base_seed: int
-    episodes_dir: Path
-    action_noise: float = 0.0
     episode_steps: int = DEMO_EPISODE_STEPS
     render_style: str = "flat"
 
@@ -63,18 +56,6 @@ class MetaworldRecorder:
         if not self.env.success_now:
             staging.write_failure(self.episodes_dir, attempt)
             return attempt, False
-        episode = staging.StagedEpisode(
-            attempt=attempt,
-            scene_seed=seed,
-            object_cell=-1,
-            target_cell=-1,
-            images=np.stack(images).astype(np.uint8),
-            state=np.stack(states).astype(np.float32),
-            environment_state=np.stack(env_states).astype(np.float32),
-            action=np.stack(actions).astype(np.float32),
-        )
+        episode = staging.StagedEpisode.from_steps(attempt, seed, (images, states, env_states, actions))
         staging.write_episode(self.episodes_dir, episode)
         return attempt, True
-
-    def close(self) -> None:
-        self.env.close()

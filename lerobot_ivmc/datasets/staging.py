@@ -81,6 +81,29 @@ class StagedEpisode:
     def num_frames(self) -> int:
         return len(self.action)
 
+    @classmethod
+    def from_steps(
+        cls,
+        attempt: int,
+        scene_seed: int,
+        steps: tuple[list, list, list, list],
+        object_cell: int = -1,
+        target_cell: int = -1,
+    ) -> StagedEpisode:
+        """An episode from its per-step (images, states, environment states, actions) lists; scenes without
+        spawn cells (MetaWorld's) keep -1."""
+        images, states, env_states, actions = steps
+        return cls(
+            attempt=attempt,
+            scene_seed=scene_seed,
+            object_cell=object_cell,
+            target_cell=target_cell,
+            images=np.stack(images).astype(np.uint8),
+            state=np.stack(states).astype(np.float32),
+            environment_state=np.stack(env_states).astype(np.float32),
+            action=np.stack(actions).astype(np.float32),
+        )
+
 
 def attempt_path(episodes_dir: Path, attempt: int, suffix: str) -> Path:
     return episodes_dir / f"attempt_{attempt:07d}.{suffix}"

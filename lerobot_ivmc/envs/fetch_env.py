@@ -29,7 +29,7 @@ from gymnasium_robotics.utils import mujoco_utils  # noqa: E402
 from lerobot_ivmc.envs import scene_model  # noqa: E402
 from lerobot_ivmc.envs.camera import OBS_TYPES, check_image_size  # noqa: E402
 from lerobot_ivmc.envs.embodiment import Embodiment  # noqa: E402
-from lerobot_ivmc.envs.offscreen import make_styled_renderer  # noqa: E402
+from lerobot_ivmc.envs.offscreen import StyledRenderers  # noqa: E402
 from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE, check_render_style  # noqa: E402
 from lerobot_ivmc.envs.scenes import Grid, Scene, cell_jitter, scenes_of_split  # noqa: E402
 
@@ -136,7 +136,7 @@ class IvmcFetchEnv(gym.Env, EzPickle):
 
         self.model = scene_model.build_model(self.object_shape, self.target_radius)
         self.data = mujoco.MjData(self.model)
-        self._renderers: dict[int, mujoco.Renderer] = {}
+        self.renderers = StyledRenderers(self.model, render_style)
         self._object_geom = self.model.geom(scene_model.OBJECT_BODY).id
         self._finger_geoms = tuple(self.model.geom(name).id for name in FINGER_GEOMS)
         self._target_body = self.model.body(scene_model.TARGET_BODY).id
@@ -236,9 +236,7 @@ class IvmcFetchEnv(gym.Env, EzPickle):
         return self._render(self.render_size)
 
     def close(self) -> None:
-        for renderer in self._renderers.values():
-            renderer.close()
-        self._renderers.clear()
+        self.renderers.close()
 
     # ------------------------------------------------------------------------------------ state readout
     @property
@@ -363,14 +361,7 @@ class IvmcFetchEnv(gym.Env, EzPickle):
         }
 
     def _render(self, size: int) -> np.ndarray:
-        if size not in self._renderers:
-            self._renderers[size] = self._make_renderer(size)
-        renderer = self._renderers[size]
-        renderer.update_scene(self.data, camera=scene_model.CAMERA_NAME)
-        return renderer.render().copy()
-
-    def _make_renderer(self, size: int) -> mujoco.Renderer:
-        return make_styled_renderer(self.model, size, self.render_style)
+        return self.renderers.frame(self.data, scene_model.CAMERA_NAME, size)
 
 
 def _parse_action(action: np.ndarray) -> tuple[np.ndarray, int]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 
 import mujoco
+import numpy as np
 
 from lerobot_ivmc.envs.render_styles import RENDER_STYLES
 
@@ -32,3 +33,25 @@ def make_styled_renderer(model: mujoco.MjModel, size: int, render_style: str) ->
     renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = style.shadows
     renderer.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = style.reflections
     return renderer
+
+
+class StyledRenderers:
+    """One renderer per frame size of a model, made on first use, all in one render style."""
+
+    def __init__(self, model: mujoco.MjModel, render_style: str):
+        self.model = model
+        self.render_style = render_style
+        self._renderers: dict[int, mujoco.Renderer] = {}
+
+    def frame(self, data: mujoco.MjData, camera: str, size: int) -> np.ndarray:
+        """A (size, size, 3) uint8 frame of `camera` (a copy)."""
+        if size not in self._renderers:
+            self._renderers[size] = make_styled_renderer(self.model, size, self.render_style)
+        renderer = self._renderers[size]
+        renderer.update_scene(data, camera=camera)
+        return renderer.render().copy()
+
+    def close(self) -> None:
+        for renderer in self._renderers.values():
+            renderer.close()
+        self._renderers.clear()

@@ -39,6 +39,25 @@ def collect(root: Path, image_size: int = 64, episodes: int = 2) -> CollectConfi
     return cfg
 
 
+def train_command(command: str, root: Path, out: Path, *flags: str, steps: int = 2) -> list[str]:
+    """`command` (lerobot-train or lerobot-ivmc-train) on the demos in `root`, `steps` steps, into `out`."""
+    return [
+        console_script(command),
+        "--policy.device=cpu",
+        f"--dataset.repo_id=local/{TASK}",
+        f"--dataset.root={root}",
+        f"--steps={steps}",
+        f"--save_freq={steps}",
+        "--num_workers=0",
+        "--eval_freq=0",
+        "--policy.push_to_hub=false",
+        "--wandb.enable=false",
+        "--policy.chunk_length=150",
+        f"--output_dir={out}",
+        *flags,
+    ]
+
+
 @pytest.fixture(scope="module")
 def demos(tmp_path_factory) -> Path:
     root = tmp_path_factory.mktemp("metaworld") / "demos"
@@ -76,24 +95,15 @@ def test_the_same_arguments_give_byte_identical_demos(demos: Path, tmp_path: Pat
 
 def test_stock_lerobot_train_and_eval_run_bvmc_on_metaworld(demos: Path, tmp_path: Path) -> None:
     out = tmp_path / "train"
-    train = [
-        console_script("lerobot-train"),
+    train = train_command(
+        "lerobot-train",
+        demos,
+        out,
         "--policy.type=bvmc",
-        "--policy.device=cpu",
-        f"--dataset.repo_id=local/{TASK}",
-        f"--dataset.root={demos}",
         "--batch_size=2",
-        "--steps=2",
-        "--save_freq=2",
-        "--num_workers=0",
-        "--eval_freq=0",
-        "--policy.push_to_hub=false",
-        "--wandb.enable=false",
-        "--policy.chunk_length=150",
         "--policy.aux_state_indices=[0,1,2,4,5,6]",
         "--policy.render_style=flat",
-        f"--output_dir={out}",
-    ]
+    )
     result = subprocess.run(train, capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stderr[-3000:]
     checkpoint = out / "checkpoints" / "last" / "pretrained_model"
@@ -120,23 +130,9 @@ def test_stock_lerobot_train_runs_bvmc_on_480_px_hub_layout_frames_resized_for_t
     image = LeRobotDataset(f"local/{TASK}", root=hub_like).meta.features["observation.image"]
     assert tuple(image["shape"]) == (480, 480, 3)
     out = tmp_path / "train"
-    train = [
-        console_script("lerobot-train"),
-        "--policy.type=bvmc",
-        "--policy.device=cpu",
-        f"--dataset.repo_id=local/{TASK}",
-        f"--dataset.root={hub_like}",
-        "--batch_size=1",
-        "--steps=2",
-        "--save_freq=2",
-        "--num_workers=0",
-        "--eval_freq=0",
-        "--policy.push_to_hub=false",
-        "--wandb.enable=false",
-        "--policy.chunk_length=150",
-        "--policy.image_size=64",
-        f"--output_dir={out}",
-    ]
+    train = train_command(
+        "lerobot-train", hub_like, out, "--policy.type=bvmc", "--batch_size=1", "--policy.image_size=64"
+    )
     result = subprocess.run(train, capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stderr[-3000:]
     checkpoint = out / "checkpoints" / "last" / "pretrained_model"
@@ -152,22 +148,7 @@ def test_stock_lerobot_train_runs_bvmc_on_480_px_hub_layout_frames_resized_for_t
 
 def test_a_render_style_other_than_the_checkpoints_is_refused(demos: Path, tmp_path: Path) -> None:
     out = tmp_path / "train"
-    train = [
-        console_script("lerobot-ivmc-train"),
-        "--policy.type=vmc",
-        "--policy.device=cpu",
-        f"--dataset.repo_id=local/{TASK}",
-        f"--dataset.root={demos}",
-        "--batch_size=2",
-        "--steps=1",
-        "--save_freq=1",
-        "--num_workers=0",
-        "--eval_freq=0",
-        "--policy.push_to_hub=false",
-        "--wandb.enable=false",
-        "--policy.chunk_length=150",
-        f"--output_dir={out}",
-    ]
+    train = train_command("lerobot-ivmc-train", demos, out, "--policy.type=vmc", "--batch_size=2", steps=1)
     result = subprocess.run(train, capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stderr[-3000:]
     checkpoint = out / "checkpoints" / "last" / "pretrained_model"

@@ -29,12 +29,11 @@ from lerobot_ivmc.envs.metaworld import (  # noqa: E402
 )
 from lerobot_ivmc.envs.metaworld.env_state import AGENT_POS_DIM, STATE_DIM  # noqa: E402
 from lerobot_ivmc.envs.metaworld.scenes import scene_key  # noqa: E402
-from lerobot_ivmc.envs.offscreen import make_styled_renderer  # noqa: E402
+from lerobot_ivmc.envs.offscreen import StyledRenderers  # noqa: E402
 from lerobot_ivmc.envs.render_styles import check_render_style  # noqa: E402
 
 require_metaworld()
 
-import mujoco  # noqa: E402
 from lerobot.envs.metaworld import MetaworldEnv  # noqa: E402
 
 SUBTASKS = ("success",)
@@ -90,7 +89,7 @@ class SeededMetaworldEnv(MetaworldEnv):
             }
         )
         scene_key(split, 0)  # refuses an unknown split
-        self._renderers: dict[int, mujoco.Renderer] = {}
+        self.renderers = StyledRenderers(self._env.model, render_style)
         self._succeeded = False
         self._steps = 0
         self.success_now = False  # MetaWorld's success flag at the last step (`_succeeded`: at any step)
@@ -131,9 +130,7 @@ class SeededMetaworldEnv(MetaworldEnv):
         return self._render(self.render_size)
 
     def close(self) -> None:
-        for renderer in self._renderers.values():
-            renderer.close()
-        self._renderers.clear()
+        self.renderers.close()
         super().close()
 
     def _observation(self, raw_obs: np.ndarray) -> dict[str, np.ndarray]:
@@ -153,10 +150,6 @@ class SeededMetaworldEnv(MetaworldEnv):
         }
 
     def _render(self, size: int) -> np.ndarray:
-        if size not in self._renderers:
-            self._renderers[size] = make_styled_renderer(self._env.model, size, self.render_style)
-        renderer = self._renderers[size]
-        renderer.update_scene(self._env.data, camera=self.camera_name)
-        frame = renderer.render()
+        frame = self.renderers.frame(self._env.data, self.camera_name, size)
         # LeRobot flips the corner2 camera's frames on both axes (they come out upside down).
         return np.ascontiguousarray(np.flip(frame, (0, 1)) if self.camera_name == "corner2" else frame)
