@@ -23,11 +23,11 @@ from pathlib import Path
 import numpy as np
 
 from lerobot_ivmc.experts import demo_end_object
-from lerobot_ivmc.recovery import controller as controller_module
 from lerobot_ivmc.recovery.config import ANCHOR_GOAL_STEPS
+from lerobot_ivmc.recovery.strategies import belief_anchor
 from lerobot_ivmc.scripts.lerobot_ivmc_eval import eval_main
 
-GOAL_POSITION = controller_module.GOAL_POSITION
+GOAL_POSITION = belief_anchor.GOAL_POSITION
 TARGET_RADIUS_CM = 3.0
 
 
@@ -35,19 +35,19 @@ def record_goal_beliefs() -> dict[str, list]:
     """Patch the controller to keep, per step, each head's believed goal (B, 3), the uncertainty (B,) and
     the batch under way; returns the lists it fills."""
     store: dict[str, list] = {"batch": [], "memory": [], "frame": [], "uncertainty": []}
-    update = controller_module.IntrospectiveController._update_beliefs
+    update = belief_anchor.AnchorRecovery.observe
 
-    def recording(self, prediction, uncertainty, normal):
-        update(self, prediction, uncertainty, normal)
-        outputs = self.policy.net.decode(prediction.embedding, stochastic=False, with_goal=True)
-        mean, std = self.env_state_mean[3:], self.env_state_std[3:]
+    def recording(self, ctx, prediction, uncertainty, normal):
+        update(self, ctx, prediction, uncertainty, normal)
+        outputs = ctx.policy.net.decode(prediction.embedding, stochastic=False, with_goal=True)
+        mean, std = ctx.env_state_mean[3:], ctx.env_state_std[3:]
         store["memory"].append((outputs[4].float().cpu() * std + mean).numpy())
-        frame = self.policy.frame_positions[:, GOAL_POSITION]
+        frame = ctx.policy.frame_positions[:, GOAL_POSITION]
         store["frame"].append((frame.float().cpu() * std + mean).numpy())
         store["uncertainty"].append(np.asarray(uncertainty).copy())
-        store["batch"].append(len(self.traces) - 1)
+        store["batch"].append(len(ctx.traces) - 1)
 
-    controller_module.IntrospectiveController._update_beliefs = recording
+    belief_anchor.AnchorRecovery.observe = recording
     return store
 
 

@@ -30,9 +30,10 @@ from lerobot_ivmc.evaluation.eval_subtasks import feature_stats
 from lerobot_ivmc.evaluation.inspect_episode import InspectConfig
 from lerobot_ivmc.evaluation.loading import LoadedPolicy, load_policy
 from lerobot_ivmc.recovery.config import RecoveryConfig
-from lerobot_ivmc.recovery.controller import OBJECT_POSITION, IntrospectiveController
+from lerobot_ivmc.recovery.controller import IntrospectiveController
 from lerobot_ivmc.recovery.foresight_ranking import batch_observations
 from lerobot_ivmc.recovery.manoeuvres import LOOK
+from lerobot_ivmc.recovery.strategies.belief_anchor import OBJECT_POSITION
 
 WINDOW = 20
 STEPS = 200
@@ -107,7 +108,7 @@ def run_scene(
             found = step
         if found == step:
             frame_head = reader.to_world(loaded.policy.frame_positions[:, OBJECT_POSITION], OBJECT_POSITION)
-            memory_head = controller.object_beliefs[0]
+            memory_head = controller.strategy.object_beliefs[0]
             errors = {"memory_cm": errors_cm(memory_head, truth), "frame_cm": errors_cm(frame_head, truth)}
         previous = phase
         observation, _, terminated, _, info = env.step(action.numpy())

@@ -20,33 +20,12 @@ from torch import Tensor
 
 from lerobot_ivmc.envs.embodiment import Embodiment
 from lerobot_ivmc.envs.fetch_env import EMBODIMENT as FETCH
-from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy, MCPrediction
-from lerobot_ivmc.recovery.anchor import (
-    PUSH_LEGS,
-    BeliefAnchor,
-    LookFromStart,
-    carry_to_goal,
-    is_holding,
-    on_goal,
-    push_to_goal,
-    regrasp,
-)
-from lerobot_ivmc.recovery.candidates import widen_candidates
+from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
 from lerobot_ivmc.recovery.config import RecoveryConfig
-from lerobot_ivmc.recovery.manoeuvres import (
-    NORMAL,
-    BacktrackThenFollow,
-    FifoEntry,
-    Manoeuvre,
-    MemoryChange,
-    MoveToInit,
-    RandomMoves,
-)
+from lerobot_ivmc.recovery.manoeuvres import FifoEntry, Manoeuvre, MemoryChange
 from lerobot_ivmc.recovery.rollout_wrapper import BVMCRolloutWrapper
+from lerobot_ivmc.recovery.strategies import make_strategy
 from lerobot_ivmc.recovery.trigger import RecoveryTrigger
-
-# The object's and the goal's parts of the frame position head's outputs (EE 0:3, object 3:6, goal 6:9).
-OBJECT_POSITION, GOAL_POSITION = slice(3, 6), slice(6, 9)
 
 
 @dataclass
@@ -135,32 +114,10 @@ class IntrospectiveController(BVMCRolloutWrapper):
     ):
         super().__init__(policy)
         self.embodiment = embodiment
-        # Anchor's task-dependent settings left unset (`RecoveryConfig.for_task` fills them from the task):
-        # those of a task that picks its object up and lets it go at the goal, as pick_place, acting at the
-        # object's believed height.
-        recovery = recovery.for_task(object_picked=True, object_held_at_end=False)
         if recovery.mode != "none" and threshold is None:
             raise ValueError(f"Recovery mode {recovery.mode!r} needs a threshold.")
-        if recovery.mode == "min_unc":
-            policy.require_foresight()
-        if recovery.mode == "anchor" and not getattr(policy.config, "goal_head", False):
-            raise ValueError(
-                "--recovery.mode=anchor reads the goal the policy believes: it needs a policy trained with "
-                "--policy.goal_head=true (the lite preset's); use another --recovery.mode for this one."
-            )
-        on_frame = [name for name in ("anchor_object", "anchor_goal") if getattr(recovery, name) == "frame"]
-        if on_frame and not getattr(policy.config, "frame_position_head", False):
-            settings = " and ".join(f"--recovery.{name}=frame" for name in on_frame)
-            fix = " ".join(f"--recovery.{name}=memory" for name in on_frame)
-            raise ValueError(
-                f"{settings} {'read' if len(on_frame) > 1 else 'reads'} the policy's frame position head: it "
-                "needs a policy trained with "
-                f"--policy.frame_position_head=true (the lite preset's); pass {fix} for this one."
-            )
-        if recovery.mode == "anchor" and state_stats is None:
-            raise ValueError(
-                "--recovery.mode=anchor needs the statistics of observation.state (state_stats)."
-            )
+        self.strategy = make_strategy(recovery)
+        self.strategy.check(policy, state_stats)
         self.state_stats = state_stats
         self.recovery = recovery
         # Without recovery the trigger still keeps the window sums for the traces, but never fires.
@@ -206,8 +163,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
         )
         self.manoeuvres: list[Manoeuvre | None] = [None] * batch_size
         self.fifos = [deque(maxlen=self.recovery.backtrack_horizon) for _ in range(batch_size)]
-        self.anchors = [BeliefAnchor(self.recovery.anchor_goal_steps) for _ in range(batch_size)]
-        self.object_beliefs = np.zeros((batch_size, 3))  # the last step's believed object positions
+        self.strategy.start_batch(batch_size)
         # The last gripper command other than no-op each rollout executed (the fingers' open start: open).
         self.last_gripper = np.full(batch_size, self.embodiment.gripper_open, dtype=np.float64)
         self.initial_grip = grip.copy()
@@ -227,7 +183,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
             return np.random.SeedSequence([self.seed, self._first_episode + row], spawn_key=(purpose,))
         return np.random.SeedSequence([self.seed, max(len(self.traces) - 1, 0), row])
 
-    def _draws(self, row: int) -> tuple[np.random.Generator, torch.Generator]:
+    def draws(self, row: int) -> tuple[np.random.Generator, torch.Generator]:
         """Rollout `row`'s own random streams (numpy, torch) for its recovery: what one rollout draws does
         not depend on whether or when the others recover."""
         if row not in self._row_draws:
@@ -256,59 +212,6 @@ class IntrospectiveController(BVMCRolloutWrapper):
         raw = batch[OBS_STATE].float().cpu() * std + mean
         return raw[:, list(self.embodiment.finger_state_indices)].numpy().astype(np.float64)
 
-    def _update_beliefs(self, prediction: MCPrediction, uncertainty: np.ndarray, normal: np.ndarray) -> None:
-        """Read the believed object and goal positions (the net's deterministic heads, or the frame position
-        head's reading of this frame, metres); add the goals of rollouts in normal operation to their
-        anchors."""
-        outputs = self.policy.net.decode(prediction.embedding, stochastic=False, with_goal=True)
-        mean, std = self.env_state_mean[3:], self.env_state_std[3:]  # the object's part of the env state
-        believed = outputs[3]
-        if self.recovery.anchor_object == "frame":  # this frame's reading, without the memory
-            believed = self.policy.frame_positions[:, OBJECT_POSITION]
-        self.object_beliefs = (believed.float().cpu() * std + mean).numpy().astype(np.float64)
-        goals = outputs[4]
-        if self.recovery.anchor_goal == "frame":  # each frame's reading, averaged by the anchor
-            goals = self.policy.frame_positions[:, GOAL_POSITION]
-        goals = (goals.float().cpu() * std + mean).numpy().astype(np.float64)
-        for row in np.flatnonzero(normal):
-            self.anchors[row].update(float(uncertainty[row]), goals[row])
-
-    def _holding(self, row: int, fingers: np.ndarray) -> bool:
-        """Whether rollout `row` holds the object: it last commanded "close" and the fingers rest apart."""
-        return bool(self.last_gripper[row] == self.embodiment.gripper_close) and is_holding(fingers[row])
-
-    def _carry(self, row: int, grip: np.ndarray, grasped_offset: np.ndarray | None = None) -> Manoeuvre:
-        """Carry the held object to the anchored goal; `grasped_offset`: where anchor's own re-grasp put the
-        object's centre from the grip point, used instead of the believed offset where
-        `anchor_held_offset` is "grasped"."""
-        cfg = self.recovery
-        held_offset = self.object_beliefs[row] - grip
-        if grasped_offset is not None and cfg.anchor_held_offset == "grasped":
-            held_offset = grasped_offset
-        return carry_to_goal(
-            grip,
-            self.anchors[row].goal,
-            held_offset,
-            cfg.anchor_steps,
-            cfg.move_tolerance,
-            cfg.anchor_release,
-            cfg.anchor_max_held_offset,
-            cfg.anchor_carry_memory == "reset",
-        )
-
-    def _push(self, row: int, grip: np.ndarray, legs: int) -> Manoeuvre:
-        cfg = self.recovery
-        goal = self.anchors[row].goal
-        return push_to_goal(
-            grip,
-            self.object_beliefs[row],
-            goal,
-            cfg.anchor_steps,
-            cfg.move_tolerance,
-            legs,
-            cfg.anchor_rest_height,
-        )
-
     def _apply(self, row: int, change: MemoryChange) -> None:
         memory = self.policy._memory
         if memory is None:
@@ -318,84 +221,12 @@ class IntrospectiveController(BVMCRolloutWrapper):
             values = memory_row(self.policy.initial_memory(1), 0)
         write_memory_row(memory, row, values)
 
-    def _min_unc_action(self, prediction: MCPrediction, row: int) -> np.ndarray:
-        """The candidate action of `row` (a sample, widened by `candidate_noise`) with the lowest foreseen
-        uncertainty of the next step (or, as `min_unc_choice` says, the mean or a random candidate)."""
-        choice = self.recovery.min_unc_choice
-        if choice == "mean":
-            return prediction.mean_action[row].cpu().numpy()
-        rng, generator = self._draws(row)
-        candidates = widen_candidates(prediction.samples[row : row + 1], self.candidate_noise, generator)
-        if choice == "random":
-            return candidates[0, int(rng.integers(candidates.shape[1]))].cpu().numpy()
-        foreseen = self.policy.foresee(prediction.embedding[row : row + 1], candidates)
-        return candidates[0, int(foreseen[0].argmin())].cpu().numpy()
-
-    def _anchor(self, row: int, grip: np.ndarray, fingers: np.ndarray) -> tuple[Manoeuvre, dict]:
-        """Anchor's manoeuvre for rollout `row` from what it feels and believes now, and what the recovery
-        event reports of it."""
-        cfg = self.recovery
-        holding = self._holding(row, fingers)
-        if holding:
-            manoeuvre = self._carry(row, grip)
-        elif cfg.anchor_grasp:
-            manoeuvre = regrasp(
-                grip,
-                self.object_beliefs[row],
-                cfg.anchor_steps,
-                cfg.move_tolerance,
-                cfg.anchor_rest_height,
-                cfg.anchor_grasp_offset,
-            )
-        else:
-            manoeuvre = self._push(row, grip, PUSH_LEGS)
-        return manoeuvre, {"holding": holding, "target": manoeuvre.target.round(4).tolist()}
-
-    def _begin_recovery(
-        self, row: int, grip: np.ndarray, window_sum: float, fingers: np.ndarray | None
-    ) -> Manoeuvre:
-        mode, cfg = self.recovery.mode, self.recovery
-        if mode == "anchor" and cfg.anchor_look_steps > 0 and not self._holding(row, fingers):
-            gripper = int(self.last_gripper[row])  # anchor runs on the Fetch arm only
-            manoeuvre = LookFromStart(
-                grip,
-                self.initial_grip[row],
-                gripper,
-                cfg.anchor_look_steps,
-                cfg.anchor_steps,
-                cfg.move_tolerance,
-            )
-            event_extra = {"look_steps": cfg.anchor_look_steps}
-        elif mode == "anchor":
-            manoeuvre, event_extra = self._anchor(row, grip, fingers)
-        elif mode == "min_unc":
-            manoeuvre = BacktrackThenFollow(
-                list(self.fifos[row]),
-                cfg.recovery_steps,
-                cfg.backtrack_horizon,
-                cfg.backtrack_tolerance,
-                self.embodiment,
-                memory=cfg.min_unc_memory,
-            )
-            event_extra = {"backtrack_to_step": manoeuvre.target.step}
-        elif mode == "rand":
-            manoeuvre, event_extra = (
-                RandomMoves(cfg.recovery_steps, cfg.rand_step_scale, self._draws(row)[0]),
-                {},
-            )
-        else:
-            manoeuvre = MoveToInit(
-                self.initial_grip[row],
-                cfg.init_sphere_radius,
-                cfg.recovery_steps,
-                cfg.move_tolerance,
-                self._draws(row)[0],
-                self.embodiment,
-            )
-            event_extra = {"target": manoeuvre.target.round(4).tolist()}
+    def _begin_recovery(self, row: int, grip: np.ndarray, window_sum: float, fingers: np.ndarray | None):
+        """The strategy's manoeuvre for rollout `row`, its FIFO cleared and the recovery event recorded."""
+        manoeuvre, event_extra = self.strategy.begin(self, row, grip, fingers)
         self.fifos[row].clear()
         self.traces[-1].events[row].append(
-            {"step": self.step, "mode": mode, "window_sum": window_sum, **event_extra}
+            {"step": self.step, "mode": self.recovery.mode, "window_sum": window_sum, **event_extra}
         )
         return manoeuvre
 
@@ -403,69 +234,72 @@ class IntrospectiveController(BVMCRolloutWrapper):
     def select_action(self, batch: dict[str, Tensor], **kwargs) -> Tensor:
         """(B, 4) actions: the Monte Carlo mean, or a recovery step where one is under way."""
         grip = self.grip_positions(batch)
-        batch_size = grip.shape[0]
-        if self._batch_size != batch_size:
-            self._start_batch(batch_size, grip)
+        if self._batch_size != grip.shape[0]:
+            self._start_batch(grip.shape[0], grip)
         for observer in self.observers:
             observer.observe(batch)
-        fingers = self.finger_joints(batch) if self.recovery.mode == "anchor" else None
-        for row, manoeuvre in enumerate(self.manoeuvres):
-            if manoeuvre is not None:
-                change = manoeuvre.advance(grip[row])
-                if change is not None:
-                    self._apply(row, change)
-                if manoeuvre.finished:
-                    self.manoeuvres[row] = None
-                    if manoeuvre.then_anchor:  # the look is over: anchor on what it showed
-                        self.manoeuvres[row], event_extra = self._anchor(row, grip[row], fingers)
-                        self.traces[-1].events[row][-1].update(event_extra)
-                    elif manoeuvre.then_carry and self._holding(row, fingers):
-                        # a re-grasp that held
-                        self.manoeuvres[row] = self._carry(row, grip[row], manoeuvre.held_offset)
-                    elif manoeuvre.then_push and not on_goal(
-                        self.object_beliefs[row], self.anchors[row].goal
-                    ):
-                        self.manoeuvres[row] = self._push(row, grip[row], manoeuvre.then_push)
-
-        keep_fifo = self.recovery.mode == "min_unc"
+        fingers = self.finger_joints(batch) if self.strategy.reads_fingers else None
+        self._advance_manoeuvres(grip, fingers)
         # The live memory, not a copy: `sample` replaces it with new tensors, and `memory_row` copies rows.
-        memory_before = self.policy._memory if keep_fifo else None
-        if keep_fifo and memory_before is None:
-            memory_before = self.policy.initial_memory(batch_size)
+        memory_before = self.policy._memory if self.strategy.keeps_fifo else None
         prediction = self.policy.sample(batch, noise=self._mask_noise())
         uncertainty = prediction.uncertainty.float().cpu().numpy()
         normal = np.array([m is None for m in self.manoeuvres])
-        if keep_fifo:
-            for row in np.flatnonzero(normal):
-                self.fifos[row].append(
-                    FifoEntry(float(uncertainty[row]), memory_row(memory_before, row), grip[row], self.step)
-                )
-        if self.recovery.mode == "anchor":
-            self._update_beliefs(prediction, uncertainty, normal)
+        if self.strategy.keeps_fifo:
+            self._keep_fifo(memory_before, uncertainty, normal, grip)
+        self.strategy.observe(self, prediction, uncertainty, normal)
         fire = self.trigger.update(uncertainty, normal)
         window_sum = self.trigger.decision_sums
-
         actions = prediction.mean_action.clone()
-        phases = np.zeros(batch_size, dtype=np.int8)
-        for row in range(batch_size):
+        phases = np.zeros(grip.shape[0], dtype=np.int8)
+        for row in range(grip.shape[0]):
             if fire[row]:
                 self.manoeuvres[row] = self._begin_recovery(row, grip[row], float(window_sum[row]), fingers)
             manoeuvre = self.manoeuvres[row]
-            if manoeuvre is None:
-                phases[row] = NORMAL
-                continue
-            phases[row] = manoeuvre.phase
-            action = manoeuvre.act(grip[row], lambda row=row: self._min_unc_action(prediction, row))
-            actions[row] = torch.as_tensor(action, dtype=actions.dtype, device=actions.device)
+            if manoeuvre is not None:
+                phases[row] = manoeuvre.phase
+                action = manoeuvre.act(
+                    grip[row], lambda row=row: self.strategy.policy_action(self, prediction, row)
+                )
+                actions[row] = torch.as_tensor(action, dtype=actions.dtype, device=actions.device)
+        self._resolve_gripper(actions)
+        self._record(uncertainty, window_sum, phases)
+        return actions
 
-        held = torch.isnan(actions[:, -1])  # manoeuvres that leave the fingers as they are
+    def _advance_manoeuvres(self, grip: np.ndarray, fingers: np.ndarray | None) -> None:
+        """Advance every manoeuvre under way (memory changes applied); a finished one is followed by what its
+        strategy says (or the policy)."""
+        for row, manoeuvre in enumerate(self.manoeuvres):
+            if manoeuvre is None:
+                continue
+            change = manoeuvre.advance(grip[row])
+            if change is not None:
+                self._apply(row, change)
+            if manoeuvre.finished:
+                self.manoeuvres[row] = self.strategy.follow(self, row, manoeuvre, grip[row], fingers)
+
+    def _keep_fifo(
+        self, memory_before: tuple[Tensor, ...] | None, uncertainty: np.ndarray, normal: np.ndarray, grip
+    ) -> None:
+        """Add this step of every rollout in normal operation to its FIFO (min_unc's back-track targets)."""
+        if memory_before is None:
+            memory_before = self.policy.initial_memory(len(uncertainty))
+        for row in np.flatnonzero(normal):
+            entry = FifoEntry(float(uncertainty[row]), memory_row(memory_before, row), grip[row], self.step)
+            self.fifos[row].append(entry)
+
+    def _resolve_gripper(self, actions: Tensor) -> None:
+        """Give manoeuvre steps that leave the fingers as they are (NaN) the robot's command for that, in
+        place, and remember each rollout's last gripper command."""
+        held = torch.isnan(actions[:, -1])
         if held.any():
             hold = torch.as_tensor(self.embodiment.hold(self.last_gripper), dtype=actions.dtype)
             actions[:, -1] = torch.where(held, hold.to(actions.device), actions[:, -1])
         self.last_gripper = self.embodiment.remember(self.last_gripper, actions[:, -1].float().cpu().numpy())
+
+    def _record(self, uncertainty: np.ndarray, window_sum: np.ndarray, phases: np.ndarray) -> None:
         trace = self.traces[-1]
         trace.uncertainty.append(uncertainty)
         trace.window_sum.append(window_sum.copy())
         trace.phase.append(phases)
         self.step += 1
-        return actions

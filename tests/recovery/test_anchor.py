@@ -526,7 +526,7 @@ def test_anchor_reads_the_object_from_the_head_it_is_told(source: str) -> None:
     controller = anchor_controller(policy, anchor_grasp=False, anchor_object=source)
     run_episode(controller, steps=12)
     believed = memory_object if source == "memory" else frame_object
-    np.testing.assert_allclose(controller.object_beliefs[0], believed, atol=1e-6)
+    np.testing.assert_allclose(controller.strategy.object_beliefs[0], believed, atol=1e-6)
     event = controller.traces[-1].events[0][0]
     assert event["step"] == 10
     # The first leg pushes along the farther axis (y here), in the column of the object the named head

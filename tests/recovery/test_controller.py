@@ -166,11 +166,12 @@ def test_min_unc_executes_the_candidate_with_the_lowest_foreseen_uncertainty() -
     observation, _ = env.reset(seed=1)
     prediction = policy.sample(to_batch(observation))
     foreseen = policy.foresee(prediction.embedding, prediction.samples)[0]
-    chosen = controller._min_unc_action(prediction, 0)
+    chosen = controller.strategy.policy_action(controller, prediction, 0)
     np.testing.assert_array_equal(chosen, prediction.samples[0, int(foreseen.argmin())].numpy())
     # Against a head patched to prefer candidate 5:
     policy.foresee = lambda e, a: torch.where(torch.arange(a.shape[1]) == 5, 0.0, 1.0)[None]
-    np.testing.assert_array_equal(controller._min_unc_action(prediction, 0), prediction.samples[0, 5].numpy())
+    chosen_again = controller.strategy.policy_action(controller, prediction, 0)
+    np.testing.assert_array_equal(chosen_again, prediction.samples[0, 5].numpy())
     env.close()
 
 
@@ -203,7 +204,7 @@ def test_min_unc_choice_mean_and_random_replace_the_foresight_choice() -> None:
         controller = IntrospectiveController(
             policy, cfg, threshold=1.0, window=20, env_state_stats=IDENTITY_STATS, seed=seed
         )
-        return controller._min_unc_action(prediction, 0)
+        return controller.strategy.policy_action(controller, prediction, 0)
 
     np.testing.assert_array_equal(choose("foresight"), prediction.samples[0, 5].numpy())
     np.testing.assert_array_equal(choose("mean"), prediction.mean_action[0].numpy())
@@ -236,12 +237,13 @@ def test_min_unc_widens_its_candidates_with_the_noise_the_head_was_distilled_wit
 
     default = controller(None)
     assert default.candidate_noise == 0.4
-    chosen = default._min_unc_action(prediction, 0)
+    chosen = default.strategy.policy_action(default, prediction, 0)
     samples = prediction.samples[0].numpy()
     assert chosen[0] > samples[:, 0].max() + 0.1  # beyond every plain sample
     assert chosen[3] in samples[:, 3]  # the gripper command is a sample's, never perturbed
     # An explicit 0 restores the paper's choice among the plain samples.
-    plain = controller(0.0)._min_unc_action(prediction, 0)
+    widened_not = controller(0.0)
+    plain = widened_not.strategy.policy_action(widened_not, prediction, 0)
     assert any((plain == sample).all() for sample in samples)
 
 

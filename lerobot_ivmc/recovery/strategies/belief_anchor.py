@@ -1,0 +1,185 @@
+"""`anchor` (beyond the paper): a planner for the Fetch tasks driven by the policy's beliefs from its least
+uncertain steps (`recovery/anchor.py` has its manoeuvres and the reasons). This module decides which
+manoeuvre a rollout makes, from what the robot feels and the policy believes, and what follows it."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+from torch import Tensor
+
+from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy, MCPrediction
+from lerobot_ivmc.recovery.anchor import (
+    PUSH_LEGS,
+    BeliefAnchor,
+    LookFromStart,
+    carry_to_goal,
+    is_holding,
+    on_goal,
+    push_to_goal,
+    regrasp,
+)
+from lerobot_ivmc.recovery.config import RecoveryConfig
+from lerobot_ivmc.recovery.manoeuvres import Manoeuvre
+from lerobot_ivmc.recovery.strategies.base import RecoveryStrategy
+from lerobot_ivmc.recovery.strategies.registry import register_strategy
+
+if TYPE_CHECKING:
+    from lerobot_ivmc.recovery.controller import IntrospectiveController
+
+# The object's and the goal's parts of the frame position head's outputs (EE 0:3, object 3:6, goal 6:9).
+OBJECT_POSITION, GOAL_POSITION = slice(3, 6), slice(6, 9)
+
+
+@register_strategy("anchor")
+class AnchorRecovery(RecoveryStrategy):
+    """Carry a held object to the anchored goal; re-grasp one not held where the policy believes it (after a
+    look from the start pose where the task says), or push it there."""
+
+    reads_fingers = True
+
+    def __init__(self, settings: RecoveryConfig):
+        # Task settings left unset (`RecoveryConfig.for_task` fills them from the task): those of a task
+        # that picks its object up and lets it go at the goal, as pick_place, at the object's believed height.
+        super().__init__(settings.for_task(object_picked=True, object_held_at_end=False))
+        self.anchors: list[BeliefAnchor] = []
+        self.object_beliefs = np.zeros((0, 3))
+
+    def check(self, policy: BVMCPolicy, state_stats: tuple[Tensor, Tensor] | None) -> None:
+        if not getattr(policy.config, "goal_head", False):
+            raise ValueError(
+                "--recovery.mode=anchor reads the goal the policy believes: it needs a policy trained with "
+                "--policy.goal_head=true (the lite preset's); use another --recovery.mode for this one."
+            )
+        on_frame = [n for n in ("anchor_object", "anchor_goal") if getattr(self.settings, n) == "frame"]
+        if on_frame and not getattr(policy.config, "frame_position_head", False):
+            settings = " and ".join(f"--recovery.{name}=frame" for name in on_frame)
+            fix = " ".join(f"--recovery.{name}=memory" for name in on_frame)
+            raise ValueError(
+                f"{settings} {'read' if len(on_frame) > 1 else 'reads'} the policy's frame position head: it "
+                "needs a policy trained with "
+                f"--policy.frame_position_head=true (the lite preset's); pass {fix} for this one."
+            )
+        if state_stats is None:
+            raise ValueError(
+                "--recovery.mode=anchor needs the statistics of observation.state (state_stats)."
+            )
+
+    def start_batch(self, batch_size: int) -> None:
+        self.anchors = [BeliefAnchor(self.settings.anchor_goal_steps) for _ in range(batch_size)]
+        self.object_beliefs = np.zeros((batch_size, 3))  # the last step's believed object positions
+
+    def observe(
+        self,
+        ctx: IntrospectiveController,
+        prediction: MCPrediction,
+        uncertainty: np.ndarray,
+        normal: np.ndarray,
+    ) -> None:
+        """Read the believed object and goal positions (the net's deterministic heads, or the frame position
+        head's reading of this frame, metres); add the goals of rollouts in normal operation to their
+        anchors."""
+        outputs = ctx.policy.net.decode(prediction.embedding, stochastic=False, with_goal=True)
+        mean, std = ctx.env_state_mean[3:], ctx.env_state_std[3:]  # the object's part of the env state
+        believed = outputs[3]
+        if self.settings.anchor_object == "frame":  # this frame's reading, without the memory
+            believed = ctx.policy.frame_positions[:, OBJECT_POSITION]
+        self.object_beliefs = (believed.float().cpu() * std + mean).numpy().astype(np.float64)
+        goals = outputs[4]
+        if self.settings.anchor_goal == "frame":  # each frame's reading, averaged by the anchor
+            goals = ctx.policy.frame_positions[:, GOAL_POSITION]
+        goals = (goals.float().cpu() * std + mean).numpy().astype(np.float64)
+        for row in np.flatnonzero(normal):
+            self.anchors[row].update(float(uncertainty[row]), goals[row])
+
+    def holding(self, ctx: IntrospectiveController, row: int, fingers: np.ndarray) -> bool:
+        """Whether rollout `row` holds the object: it last commanded "close" and the fingers rest apart."""
+        return bool(ctx.last_gripper[row] == ctx.embodiment.gripper_close) and is_holding(fingers[row])
+
+    def begin(
+        self, ctx: IntrospectiveController, row: int, grip: np.ndarray, fingers: np.ndarray
+    ) -> tuple[Manoeuvre, dict]:
+        s = self.settings
+        if s.anchor_look_steps > 0 and not self.holding(ctx, row, fingers):
+            look = LookFromStart(
+                grip,
+                ctx.initial_grip[row],
+                int(ctx.last_gripper[row]),
+                s.anchor_look_steps,
+                s.anchor_steps,
+                s.move_tolerance,
+            )
+            return look, {"look_steps": s.anchor_look_steps}
+        return self.act_on_beliefs(ctx, row, grip, fingers)
+
+    def act_on_beliefs(
+        self, ctx: IntrospectiveController, row: int, grip: np.ndarray, fingers: np.ndarray
+    ) -> tuple[Manoeuvre, dict]:
+        """Anchor's manoeuvre for rollout `row` from what it feels and believes now, and what the recovery
+        event reports of it."""
+        s = self.settings
+        holding = self.holding(ctx, row, fingers)
+        if holding:
+            manoeuvre = self.carry(row, grip)
+        elif s.anchor_grasp:
+            manoeuvre = regrasp(
+                grip,
+                self.object_beliefs[row],
+                s.anchor_steps,
+                s.move_tolerance,
+                s.anchor_rest_height,
+                s.anchor_grasp_offset,
+            )
+        else:
+            manoeuvre = self.push(row, grip, PUSH_LEGS)
+        return manoeuvre, {"holding": holding, "target": manoeuvre.target.round(4).tolist()}
+
+    def follow(
+        self,
+        ctx: IntrospectiveController,
+        row: int,
+        finished: Manoeuvre,
+        grip: np.ndarray,
+        fingers: np.ndarray,
+    ) -> Manoeuvre | None:
+        if isinstance(finished, LookFromStart):  # the look is over: anchor on what it showed
+            manoeuvre, event_extra = self.act_on_beliefs(ctx, row, grip, fingers)
+            ctx.traces[-1].events[row][-1].update(event_extra)
+            return manoeuvre
+        if finished.then_carry and self.holding(ctx, row, fingers):  # a re-grasp that held
+            return self.carry(row, grip, finished.held_offset)
+        if finished.then_push and not on_goal(self.object_beliefs[row], self.anchors[row].goal):
+            return self.push(row, grip, finished.then_push)
+        return None
+
+    def carry(self, row: int, grip: np.ndarray, grasped_offset: np.ndarray | None = None) -> Manoeuvre:
+        """Carry the held object to the anchored goal; `grasped_offset`: where anchor's own re-grasp put the
+        object's centre from the grip point, used instead of the believed offset where
+        `anchor_held_offset` is "grasped"."""
+        s = self.settings
+        held_offset = self.object_beliefs[row] - grip
+        if grasped_offset is not None and s.anchor_held_offset == "grasped":
+            held_offset = grasped_offset
+        return carry_to_goal(
+            grip,
+            self.anchors[row].goal,
+            held_offset,
+            s.anchor_steps,
+            s.move_tolerance,
+            s.anchor_release,
+            s.anchor_max_held_offset,
+            s.anchor_carry_memory == "reset",
+        )
+
+    def push(self, row: int, grip: np.ndarray, legs: int) -> Manoeuvre:
+        s = self.settings
+        return push_to_goal(
+            grip,
+            self.object_beliefs[row],
+            self.anchors[row].goal,
+            s.anchor_steps,
+            s.move_tolerance,
+            legs,
+            s.anchor_rest_height,
+        )
