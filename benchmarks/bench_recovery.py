@@ -30,6 +30,7 @@ import torch
 from bench_policy import IMAGE_KEY, make_policy, time_interleaved
 from lerobot.utils.constants import OBS_ENV_STATE, OBS_STATE
 
+from lerobot_ivmc.envs.fetch_env import EMBODIMENT as FETCH_EMBODIMENT
 from lerobot_ivmc.policies import BVMCConfig, BVMCPolicy
 from lerobot_ivmc.recovery.config import RecoveryConfig
 from lerobot_ivmc.recovery.controller import IntrospectiveController
@@ -44,7 +45,12 @@ def step_latency(rounds: int, calls: int, image_size: int) -> dict[str, tuple[fl
         OBS_ENV_STATE: torch.randn(1, 6),
     }
     controller = IntrospectiveController(
-        policy, RecoveryConfig(mode="min_unc"), 1e9, 20, (torch.zeros(6), torch.ones(6))
+        policy,
+        RecoveryConfig(mode="min_unc"),
+        1e9,
+        20,
+        (torch.zeros(6), torch.ones(6)),
+        embodiment=FETCH_EMBODIMENT,
     )
     controller.reset()
     policy.reset()

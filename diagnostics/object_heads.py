@@ -25,6 +25,7 @@ from lerobot.configs import parser
 from lerobot.utils.constants import OBS_STATE
 
 from lerobot_ivmc.envs import make_task_env, task_env_class
+from lerobot_ivmc.envs.fetch_env import EMBODIMENT as FETCH_EMBODIMENT
 from lerobot_ivmc.evaluation.beliefs import BeliefReader
 from lerobot_ivmc.evaluation.eval_subtasks import feature_stats
 from lerobot_ivmc.evaluation.inspect_episode import InspectConfig
@@ -91,6 +92,7 @@ def run_scene(
         (reader.mean, reader.std),
         seed=0,
         state_stats=feature_stats(loaded.preprocessor, OBS_STATE),
+        embodiment=FETCH_EMBODIMENT,
     )
     env = make_task_env(task, image_size=64, split="val", render_style="fast")
     torch.manual_seed(0)

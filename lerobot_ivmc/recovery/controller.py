@@ -19,7 +19,6 @@ from lerobot.utils.constants import OBS_ENV_STATE, OBS_STATE
 from torch import Tensor
 
 from lerobot_ivmc.envs.embodiment import Embodiment
-from lerobot_ivmc.envs.fetch_env import EMBODIMENT as FETCH
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
 from lerobot_ivmc.recovery.config import RecoveryConfig
 from lerobot_ivmc.recovery.manoeuvres import FifoEntry, Manoeuvre, MemoryChange
@@ -110,7 +109,8 @@ class IntrospectiveController(BVMCRolloutWrapper):
         seed: int = 0,
         observers: tuple[StepObserver, ...] = (),
         state_stats: tuple[Tensor, Tensor] | None = None,
-        embodiment: Embodiment = FETCH,
+        *,
+        embodiment: Embodiment,
     ):
         super().__init__(policy)
         self.embodiment = embodiment

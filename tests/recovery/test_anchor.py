@@ -15,6 +15,7 @@ from test_controller import IDENTITY_STATS, recorded_changes, run_episode, scrip
 from torch import Tensor
 
 from lerobot_ivmc.envs import make_task_env, task_env_class
+from lerobot_ivmc.envs.fetch_env import EMBODIMENT as FETCH_EMBODIMENT
 from lerobot_ivmc.envs.fetch_env import GRIPPER_CLOSE, GRIPPER_OPEN
 from lerobot_ivmc.experts import demo_end_object, make_expert
 from lerobot_ivmc.policies import BVMCConfig
@@ -110,7 +111,13 @@ def frame_head_reads(policy: BVMCPolicy, part: slice, position: np.ndarray) -> N
 def anchor_controller(policy: BVMCPolicy, **recovery) -> IntrospectiveController:
     cfg = RecoveryConfig(mode="anchor", window=1, initial_interval=0, **recovery)
     return IntrospectiveController(
-        policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS, state_stats=STATE_IDENTITY
+        policy,
+        cfg,
+        threshold=0.5,
+        window=1,
+        env_state_stats=IDENTITY_STATS,
+        state_stats=STATE_IDENTITY,
+        embodiment=FETCH_EMBODIMENT,
     )
 
 
@@ -214,7 +221,13 @@ def test_anchor_with_exact_beliefs_completes_pick_reach(expert_steps: int) -> No
         anchor_goal="memory",
     ).for_task(True, True, stick.rest_height, max(stick.half_size))
     controller = IntrospectiveController(
-        policy, settings, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS, state_stats=STATE_IDENTITY
+        policy,
+        settings,
+        threshold=0.5,
+        window=1,
+        env_state_stats=IDENTITY_STATS,
+        state_stats=STATE_IDENTITY,
+        embodiment=FETCH_EMBODIMENT,
     )
     controller.reset()
     success = False
@@ -259,7 +272,13 @@ def test_a_regrasp_carries_the_object_by_the_offset_it_grasped_at(held_offset: s
         anchor_goal="memory",
     ).for_task(True, True, env_class.object_shape.rest_height, max(env_class.object_shape.half_size))
     controller = IntrospectiveController(
-        policy, settings, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS, state_stats=STATE_IDENTITY
+        policy,
+        settings,
+        threshold=0.5,
+        window=1,
+        env_state_stats=IDENTITY_STATS,
+        state_stats=STATE_IDENTITY,
+        embodiment=FETCH_EMBODIMENT,
     )
     start_object = env.object_position.copy()
     controller.reset()
@@ -434,7 +453,13 @@ def test_recovery_reads_nothing_of_the_simulator_state(mode: str) -> None:
         base_mode = mode.removesuffix("_look").removesuffix("_frame").removesuffix("_held")
         cfg = RecoveryConfig(mode=base_mode, window=1, initial_interval=0, **short)
         controller = IntrospectiveController(
-            policy, cfg, threshold=0.0, window=1, env_state_stats=IDENTITY_STATS, state_stats=STATE_IDENTITY
+            policy,
+            cfg,
+            threshold=0.0,
+            window=1,
+            env_state_stats=IDENTITY_STATS,
+            state_stats=STATE_IDENTITY,
+            embodiment=FETCH_EMBODIMENT,
         )
         env = make_task_env("pick_place", image_size=64)
         observation, _ = env.reset(seed=3)

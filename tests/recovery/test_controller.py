@@ -12,6 +12,7 @@ from lerobot.utils.constants import OBS_ENV_STATE, OBS_STATE
 from policy_helpers import IMAGE_KEY, make_config
 
 from lerobot_ivmc.envs import make_task_env
+from lerobot_ivmc.envs.fetch_env import EMBODIMENT as FETCH_EMBODIMENT
 from lerobot_ivmc.policies import BVMCConfig
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
 from lerobot_ivmc.recovery.config import RecoveryConfig
@@ -88,7 +89,9 @@ def test_min_unc_backtracks_to_the_least_uncertain_step_and_restores_its_memory(
     stream = [0.2] * 4 + [0.01] + [0.2] * 5 + [1.0] + [0.2] * 100
     policy = scripted_policy(stream, move=[0.0, 0.6, 0.0])
     cfg = RecoveryConfig(mode="min_unc", window=1, initial_interval=0, recovery_steps=3)
-    controller = IntrospectiveController(policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS)
+    controller = IntrospectiveController(
+        policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS, embodiment=FETCH_EMBODIMENT
+    )
     memories, restores = [], []
     select = controller.select_action
 
@@ -135,7 +138,9 @@ def test_min_unc_with_min_unc_memory_reset_backtracks_then_resets_the_memory() -
     cfg = RecoveryConfig(
         mode="min_unc", window=1, initial_interval=0, recovery_steps=3, min_unc_memory="reset"
     )
-    controller = IntrospectiveController(policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS)
+    controller = IntrospectiveController(
+        policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS, embodiment=FETCH_EMBODIMENT
+    )
     changes, apply = [], controller._apply
 
     def recording_apply(row, change):
@@ -160,7 +165,7 @@ def test_min_unc_executes_the_candidate_with_the_lowest_foreseen_uncertainty() -
     policy = scripted_policy([0.0], move=[0.0, 0.0, 0.0])
     cfg = RecoveryConfig(mode="min_unc")
     controller = IntrospectiveController(
-        policy, cfg, threshold=1.0, window=20, env_state_stats=IDENTITY_STATS
+        policy, cfg, threshold=1.0, window=20, env_state_stats=IDENTITY_STATS, embodiment=FETCH_EMBODIMENT
     )
     env = make_task_env("pick_place", image_size=64)
     observation, _ = env.reset(seed=1)
@@ -182,7 +187,9 @@ def test_min_unc_memory_keep_backtracks_without_touching_the_memory() -> None:
     cfg = RecoveryConfig(
         mode="min_unc", window=1, initial_interval=0, recovery_steps=3, min_unc_memory="keep"
     )
-    controller = IntrospectiveController(policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS)
+    controller = IntrospectiveController(
+        policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS, embodiment=FETCH_EMBODIMENT
+    )
     changes = recorded_changes(controller)
     run_episode(controller, steps=20)
     phases = np.stack(controller.traces[-1].phase)[:, 0]
@@ -202,7 +209,13 @@ def test_min_unc_choice_mean_and_random_replace_the_foresight_choice() -> None:
     def choose(choice: str, seed: int = 0) -> np.ndarray:
         cfg = RecoveryConfig(mode="min_unc", min_unc_choice=choice)
         controller = IntrospectiveController(
-            policy, cfg, threshold=1.0, window=20, env_state_stats=IDENTITY_STATS, seed=seed
+            policy,
+            cfg,
+            threshold=1.0,
+            window=20,
+            env_state_stats=IDENTITY_STATS,
+            seed=seed,
+            embodiment=FETCH_EMBODIMENT,
         )
         return controller.strategy.policy_action(controller, prediction, 0)
 
@@ -233,7 +246,9 @@ def test_min_unc_widens_its_candidates_with_the_noise_the_head_was_distilled_wit
 
     def controller(candidate_noise):
         cfg = RecoveryConfig(mode="min_unc", candidate_noise=candidate_noise)
-        return IntrospectiveController(policy, cfg, threshold=1.0, window=20, env_state_stats=IDENTITY_STATS)
+        return IntrospectiveController(
+            policy, cfg, threshold=1.0, window=20, env_state_stats=IDENTITY_STATS, embodiment=FETCH_EMBODIMENT
+        )
 
     default = controller(None)
     assert default.candidate_noise == 0.4
@@ -252,7 +267,9 @@ def test_rand_and_init_move_then_reset_the_memory(mode: str, phase: int) -> None
     stream = [0.0] * 5 + [1.0] + [0.0] * 100
     policy = scripted_policy(stream, move=[0.0, 0.3, 0.0])
     cfg = RecoveryConfig(mode=mode, window=1, initial_interval=0, recovery_steps=25)
-    controller = IntrospectiveController(policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS)
+    controller = IntrospectiveController(
+        policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS, embodiment=FETCH_EMBODIMENT
+    )
     changes = []
     apply = controller._apply
     controller._apply = lambda row, change: (changes.append(change), apply(row, change))
@@ -304,7 +321,13 @@ def test_a_rollouts_random_draws_do_not_depend_on_when_the_others_recover(mode: 
         policy = scripted_policy(stream, move=[0.0, 0.3, 0.0])
         cfg = RecoveryConfig(mode=mode, window=1, initial_interval=0, recovery_steps=10)
         controller = IntrospectiveController(
-            policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS, seed=3
+            policy,
+            cfg,
+            threshold=0.5,
+            window=1,
+            env_state_stats=IDENTITY_STATS,
+            seed=3,
+            embodiment=FETCH_EMBODIMENT,
         )
         actions = run_batch(controller, steps=20, seeds=(0, 1))
         events = controller.traces[-1].events
@@ -317,7 +340,12 @@ def test_a_rollouts_random_draws_do_not_depend_on_when_the_others_recover(mode: 
 def test_mode_none_records_but_never_recovers() -> None:
     policy = scripted_policy([5.0], move=[0.1, 0.0, 0.0])
     controller = IntrospectiveController(
-        policy, RecoveryConfig(mode="none"), threshold=0.1, window=20, env_state_stats=IDENTITY_STATS
+        policy,
+        RecoveryConfig(mode="none"),
+        threshold=0.1,
+        window=20,
+        env_state_stats=IDENTITY_STATS,
+        embodiment=FETCH_EMBODIMENT,
     )
     run_episode(controller, steps=25)
     trace = controller.traces[-1]
@@ -328,6 +356,8 @@ def test_mode_none_records_but_never_recovers() -> None:
 def test_min_unc_without_foresight_head_names_the_command() -> None:
     policy = BVMCPolicy(make_config(BVMCConfig, num_samples=4))
     with pytest.raises(ValueError, match="lerobot-ivmc-foresight"):
-        IntrospectiveController(policy, RecoveryConfig(mode="min_unc"), 1.0, 20, IDENTITY_STATS)
+        IntrospectiveController(
+            policy, RecoveryConfig(mode="min_unc"), 1.0, 20, IDENTITY_STATS, embodiment=FETCH_EMBODIMENT
+        )
     with pytest.raises(ValueError, match="recovery.mode"):
         RecoveryConfig(mode="retry")
