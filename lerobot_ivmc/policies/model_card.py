@@ -3,7 +3,7 @@ camera, and for a bvmc its recovery threshold (`lerobot-ivmc-threshold`)."""
 
 from __future__ import annotations
 
-from lerobot_ivmc.recovery.threshold import ThresholdRecord
+from lerobot_ivmc.policies.bvmc.threshold_record import ThresholdRecord
 
 PAPER = (
     'C.-M. Hung, L. Sun, Y. Wu, I. Havoutis and I. Posner, "Introspective Visuomotor Control: Exploiting '

@@ -16,7 +16,7 @@ from pathlib import Path
 from lerobot.configs import parser
 
 from lerobot_ivmc.cli import cli_main
-from lerobot_ivmc.recovery.foresight_distillation import (
+from lerobot_ivmc.evaluation.foresight_distillation import (
     CHECKPOINT_DIR,
     ForesightPipelineConfig,
     distill_foresight,

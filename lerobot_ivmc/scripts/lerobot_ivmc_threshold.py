@@ -17,8 +17,8 @@ from pathlib import Path
 from lerobot.configs import parser
 
 from lerobot_ivmc.cli import cli_main
+from lerobot_ivmc.evaluation.threshold_picking import CHECKPOINT_DIR, ThresholdPipelineConfig, pick
 from lerobot_ivmc.recovery.threshold import ThresholdRecord
-from lerobot_ivmc.recovery.threshold_picking import CHECKPOINT_DIR, ThresholdPipelineConfig, pick
 
 
 @parser.wrap()

@@ -15,10 +15,10 @@ from torch import Tensor, nn
 from lerobot_ivmc.policies.bvmc.concrete_dropout import ConcreteDropoutHead
 from lerobot_ivmc.policies.bvmc.configuration_bvmc import DEFAULT_DATASET_SIZE, BVMCConfig
 from lerobot_ivmc.policies.bvmc.foresight import UncertaintyForesight, from_log_uncertainty
+from lerobot_ivmc.policies.bvmc.threshold_record import ThresholdRecord
 from lerobot_ivmc.policies.bvmc.uncertainty import trace_cov_uncertainty
 from lerobot_ivmc.policies.vmc.modeling_vmc import HUB_KWARGS, VMCPolicy
 from lerobot_ivmc.policies.vmc.network import gripper_commands
-from lerobot_ivmc.recovery.threshold import ThresholdRecord
 
 logger = logging.getLogger(__name__)
 
