@@ -202,7 +202,8 @@ class PipelineConfig:
         threshold: threshold picking on validation scenes.
         eval: the Table I evaluations on test scenes (VMC, and BVMC with each of `recovery_modes`).
         recovery_modes: the BVMC rows: "none" (plain BVMC), "rand", "init", "min_unc" (the paper's) and,
-            beyond the paper, "anchor" (a policy trained with the goal head).
+            beyond the paper, "anchor" (a policy trained with the goal head; the Fetch tasks) and "retry"
+            (no task knowledge).
         fig3: the Fig. 3 evaluation (BVMC without recovery, many test episodes) and detection metrics.
         regime: the data-budget rule (off unless `--regime.demo_budgets` lists budgets).
         executor: where the stages run: one after the other here (local), or side by side on Ray.

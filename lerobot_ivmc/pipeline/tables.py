@@ -10,6 +10,7 @@ METHOD_LABELS = {
     "init": "BVMC + init",
     "min_unc": "BVMC + min unc",
     "anchor": "BVMC + anchor (beyond the paper)",
+    "retry": "BVMC + retry (beyond the paper, no task knowledge)",
 }
 
 

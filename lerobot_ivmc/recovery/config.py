@@ -8,7 +8,7 @@ from dataclasses import dataclass, fields, replace
 # none: Bayesian VMC without recovery; min_unc: the paper's back-track and minimum-uncertainty recovery;
 # rand and init: the paper's baselines ("Baselines for Visuomotor Control Recovery"); anchor (beyond the
 # paper): act on the beliefs of the policy's most certain steps (`recovery/anchor.py`).
-RECOVERY_MODES = ("none", "rand", "init", "min_unc", "anchor")
+RECOVERY_MODES = ("none", "rand", "init", "min_unc", "anchor", "retry")
 MIN_UNC_MEMORY = ("restore", "reset", "keep")
 MIN_UNC_CHOICE = ("foresight", "mean", "random")
 ANCHOR_OBJECT = ("memory", "frame")
@@ -74,6 +74,7 @@ class RecoveryConfig:
             point's position at the start of the episode, the arm's initial pose above the table. The paper
             says only "a sphere above the table".
         move_tolerance: init's move ends when the grip point is this close (metres) to its target.
+        retry_steps: retry's most steps back to the start pose (beyond the paper; it uses no task knowledge).
         candidate_noise: min_unc's candidates are the S Monte Carlo samples with N(0, noise^2) added to
             their end-effector moves (action units). None: the noise the checkpoint's foresight head was
             distilled with (`--foresight.action_noise`; 0, the paper's plain samples, for older heads), so
@@ -160,6 +161,7 @@ class RecoveryConfig:
     rand_step_scale: float = 0.5
     init_sphere_radius: float = 0.1
     move_tolerance: float = 0.01
+    retry_steps: int = 60
     candidate_noise: float | None = None
     min_unc_memory: str = "restore"
     min_unc_choice: str = "foresight"
@@ -250,7 +252,7 @@ class RecoveryConfig:
             )
         if self.window is not None and self.window < 1:
             raise ValueError(f"--recovery.window must be >= 1 step, got {self.window}.")
-        for name in ("initial_interval", "recovery_steps", "backtrack_horizon", "max_videos"):
+        for name in ("initial_interval", "recovery_steps", "backtrack_horizon", "max_videos", "retry_steps"):
             if getattr(self, name) < 0:
                 raise ValueError(f"--recovery.{name} must be >= 0, got {getattr(self, name)}.")
         if self.backtrack_horizon < 1 or self.recovery_steps < 1 or self.anchor_steps < 1:

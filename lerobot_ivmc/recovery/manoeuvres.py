@@ -16,10 +16,19 @@ from torch import Tensor
 
 from lerobot_ivmc.envs.embodiment import HOLD, Embodiment
 
-# Phases recorded per step in the traces (the last four: `anchor.py`'s manoeuvres).
-NORMAL, BACKTRACK, FOLLOW_MIN_UNC, RANDOM_MOVES, MOVE_TO_INIT, CARRY_TO_GOAL, PUSH_TO_GOAL, REGRASP, LOOK = (
-    range(9)
-)
+# Phases recorded per step in the traces (CARRY_TO_GOAL to LOOK: `anchor.py`'s manoeuvres; RETRY: retry's).
+(
+    NORMAL,
+    BACKTRACK,
+    FOLLOW_MIN_UNC,
+    RANDOM_MOVES,
+    MOVE_TO_INIT,
+    CARRY_TO_GOAL,
+    PUSH_TO_GOAL,
+    REGRASP,
+    LOOK,
+    RETRY,
+) = range(10)
 PHASE_NAMES = (
     "normal",
     "backtrack",
@@ -30,6 +39,7 @@ PHASE_NAMES = (
     "push_to_goal",
     "regrasp",
     "look",
+    "retry",
 )
 
 
@@ -185,3 +195,44 @@ class MoveToInit(Manoeuvre):
     def act(self, grip: np.ndarray, min_unc_action: Callable[[], np.ndarray]) -> np.ndarray:
         self.steps_left -= 1
         return self.embodiment.move_towards(grip, self.target, self.embodiment.gripper_open)
+
+
+class ReturnToStart(Manoeuvre):
+    """retry: open the fingers, rise to the start height, return to the episode's start grip position and
+    hand back to the policy with a fresh memory (at most `steps` steps), as a new episode from the scene as
+    it now is.
+
+    Args:
+        grip: the grip point now, (3,).
+        start: the grip point at the episode's start, (3,).
+        steps: most steps of the way.
+        tolerance: metres from a waypoint that count as reached.
+        embodiment: the robot (its action scale and gripper command).
+    """
+
+    phase = RETRY
+
+    def __init__(
+        self, grip: np.ndarray, start: np.ndarray, steps: int, tolerance: float, embodiment: Embodiment
+    ):
+        start = np.asarray(start, dtype=np.float64).copy()
+        above = np.asarray(grip, dtype=np.float64).copy()
+        above[2] = max(above[2], start[2])
+        self.waypoints = [above, start]
+        self.target = start
+        self.steps_left = steps
+        self.tolerance = tolerance
+        self.embodiment = embodiment
+        self.finished = False
+
+    def advance(self, grip: np.ndarray) -> MemoryChange | None:
+        while self.waypoints and np.linalg.norm(grip - self.waypoints[0]) <= self.tolerance:
+            self.waypoints.pop(0)
+        if not self.waypoints or self.steps_left == 0:
+            self.finished = True
+            return MemoryChange(None)
+        return None
+
+    def act(self, grip: np.ndarray, min_unc_action: Callable[[], np.ndarray]) -> np.ndarray:
+        self.steps_left -= 1
+        return self.embodiment.move_towards(grip, self.waypoints[0], self.embodiment.gripper_open)

@@ -45,3 +45,23 @@ def test_holding_the_fingers_repeats_the_last_command_where_the_robot_has_no_no_
     np.testing.assert_array_equal(SAWYER.remember(last, np.array([0.3, -1.0])), [0.3, -1.0])
     moves = RandomMoves(3, 1.0, np.random.default_rng(0))
     assert np.isnan(moves.act(np.zeros(3), lambda: None)[3]) and np.isnan(HOLD)
+
+
+def test_retry_opens_rises_returns_to_the_start_and_hands_back_with_a_fresh_memory() -> None:
+    from lerobot_ivmc.recovery.manoeuvres import ReturnToStart
+
+    start, grip = np.array([0.0, 0.6, 0.2]), np.array([0.1, 0.7, 0.05])
+    move = ReturnToStart(grip, start, steps=100, tolerance=0.005, embodiment=SAWYER)
+    path = []
+    for _ in range(100):
+        change = move.advance(grip)
+        if change is not None:
+            break
+        action = move.act(grip, lambda: None)
+        assert action[3] == SAWYER.gripper_open
+        grip = grip + action[:3] * SAWYER.metres_per_action_unit
+        path.append(grip.copy())
+    assert move.finished and change.memory is None  # a fresh memory
+    assert np.allclose(grip, start, atol=0.005)
+    rise = [p for p in path if p[2] < start[2] - 0.005]
+    assert all(np.allclose(p[:2], [0.1, 0.7]) for p in rise)  # straight up first, then across

@@ -297,13 +297,13 @@ def test_cli_ends_with_a_one_line_message(tiny_recovery_checkpoint: Path, tmp_pa
     from lerobot_ivmc.scripts.lerobot_ivmc_eval import main
 
     argv = ["lerobot-ivmc-eval", f"--policy.path={tiny_recovery_checkpoint}", *ENV_FLAGS]
-    argv += ["--recovery.mode=retry", "--seed=0", f"--output_dir={tmp_path}"]
+    argv += ["--recovery.mode=pray", "--seed=0", f"--output_dir={tmp_path}"]
     with mock.patch.object(sys, "argv", argv), pytest.raises(SystemExit) as exit_info:
         main()
     assert exit_info.value.code == 2
     last_line = capsys.readouterr().err.strip().splitlines()[-1]
     assert last_line.startswith(
-        "error: --recovery.mode must be one of ('none', 'rand', 'init', 'min_unc', 'anchor')"
+        "error: --recovery.mode must be one of ('none', 'rand', 'init', 'min_unc', 'anchor', 'retry')"
     )
 
 
