@@ -360,4 +360,4 @@ def test_min_unc_without_foresight_head_names_the_command() -> None:
             policy, RecoveryConfig(mode="min_unc"), 1.0, 20, IDENTITY_STATS, embodiment=FETCH_EMBODIMENT
         )
     with pytest.raises(ValueError, match="recovery.mode"):
-        RecoveryConfig(mode="retry")
+        RecoveryConfig(mode="pray")
