@@ -16,10 +16,10 @@ from lerobot.utils.random_utils import set_seed
 from lerobot_ivmc.constants import PRETRAINED_MODEL_DIR
 from lerobot_ivmc.envs import make_task_env_from_config
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
-from lerobot_ivmc.envs.metaworld.configuration import SeededMetaworldEnvConfig
 from lerobot_ivmc.envs.vector_env import make_vector_env
 from lerobot_ivmc.evaluation.compatibility import check_policy_matches_env
 from lerobot_ivmc.evaluation.loading import load_policy
+from lerobot_ivmc.evaluation.plugin_envs import check_plugin_env
 from lerobot_ivmc.recovery.foresight_data import collect_distillation_data, load_shards
 from lerobot_ivmc.recovery.foresight_ranking import measure_action_ranking
 from lerobot_ivmc.recovery.foresight_training import (
@@ -51,10 +51,7 @@ def copy_checkpoint_extras(source: Path, destination: Path) -> None:
 
 
 def check_inputs(cfg: ForesightPipelineConfig) -> Path:
-    if not isinstance(cfg.env, IvmcEnv | SeededMetaworldEnvConfig):
-        raise ValueError(
-            f"lerobot-ivmc-foresight runs on --env.type=ivmc or meta_world, got {cfg.env.type!r}."
-        )
+    check_plugin_env(cfg.env, "lerobot-ivmc-foresight")
     if not isinstance(cfg.env, IvmcEnv) and cfg.foresight.ranking_states > 0:
         raise ValueError(
             "--foresight.ranking_states replays simulator snapshots of the Fetch tasks; pass "

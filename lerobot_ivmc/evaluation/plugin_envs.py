@@ -8,7 +8,7 @@ from lerobot.envs.configs import EnvConfig
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
 from lerobot_ivmc.envs.embodiment import Embodiment
 from lerobot_ivmc.envs.metaworld.configuration import SeededMetaworldEnvConfig
-from lerobot_ivmc.recovery.config import RecoveryConfig
+from lerobot_ivmc.recovery.config import RECOVERY_MODES, RecoveryConfig
 
 PLUGIN_ENV_CONFIGS = (IvmcEnv, SeededMetaworldEnvConfig)
 
@@ -43,6 +43,6 @@ def recovery_settings(recovery: RecoveryConfig, env_cfg: EnvConfig) -> RecoveryC
     if recovery.mode == "anchor":
         raise ValueError(
             f"--recovery.mode=anchor is a planner for the Fetch tasks (--env.type=ivmc); on {env_cfg.type} "
-            "use --recovery.mode=rand, init or min_unc."
+            f"use another of {tuple(m for m in RECOVERY_MODES if m != 'anchor')}."
         )
     return recovery

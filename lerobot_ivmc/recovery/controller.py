@@ -89,7 +89,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
         env_state_stats: (mean, std) of `observation.environment_state`, to read the grip point's position
             from the normalised observation (where `embodiment` says).
         seed: seeds the random draws of rand and init, and min_unc's candidate noise (each rollout its own
-            streams, `_draws`), and with `recovery.random_streams="episode"` each episode's Monte Carlo
+            streams, `draws`), and with `recovery.random_streams="episode"` each episode's Monte Carlo
             masks.
         observers: shown every step's observation batch and every finished batch's trace.
         state_stats: (mean, std) of `observation.state`, to read the finger joints (where `embodiment`

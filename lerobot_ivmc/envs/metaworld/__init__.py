@@ -34,11 +34,6 @@ def _lerobot_metaworld_config() -> dict:
     return json.loads(resources.files("lerobot.envs").joinpath("metaworld_config.json").read_text())
 
 
-def metaworld_tasks() -> tuple[str, ...]:
-    """Every MetaWorld task LeRobot knows (v3 names, e.g. ``pick-place-v3``)."""
-    return tuple(_lerobot_metaworld_config()["TASK_DESCRIPTIONS"])
-
-
 def is_metaworld_task(task: str | None) -> bool:
     """Whether `task` is a MetaWorld task name (the Fetch suite's names never are)."""
     return task in _lerobot_metaworld_config()["TASK_DESCRIPTIONS"]
