@@ -25,6 +25,11 @@ class Embodiment:
             takes a grab effort), and the last command is repeated instead.
         grip_state_indices: where the grip point's x, y, z sit in `observation.environment_state`.
         finger_state_indices: where the fingers sit in `observation.state`.
+        held_gap: the finger reading (the sum of the finger entries) the fingers rest between when closed on
+            something: below it they closed on nothing, above it they are open.
+        approach_gain: the fraction of the way to a target one step commands (before the action's limit):
+            1 for an arm whose action moves the grip point itself; below 1 for one whose action moves a
+            target the hand lags behind (MetaWorld's mocap), where a full step overshoots and oscillates.
     """
 
     name: str
@@ -34,10 +39,17 @@ class Embodiment:
     gripper_noop: float | None
     grip_state_indices: tuple[int, int, int]
     finger_state_indices: tuple[int, ...]
+    held_gap: tuple[float, float]
+    approach_gain: float = 1.0
+
+    def holds(self, fingers: np.ndarray) -> bool:
+        """Whether fingers read as `fingers` (F,) rest apart on something."""
+        gap = float(np.sum(fingers))
+        return self.held_gap[0] < gap < self.held_gap[1]
 
     def move_towards(self, grip: np.ndarray, target: np.ndarray, gripper: float = HOLD) -> np.ndarray:
         """A (4,) action that moves the grip point as far toward `target` (metres) as one step allows."""
-        delta = np.clip((target - grip) / self.metres_per_action_unit, -1.0, 1.0)
+        delta = np.clip(self.approach_gain * (target - grip) / self.metres_per_action_unit, -1.0, 1.0)
         return np.array([*delta, gripper], dtype=np.float32)
 
     def hold(self, last_command: np.ndarray) -> np.ndarray:

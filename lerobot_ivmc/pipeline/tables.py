@@ -11,6 +11,7 @@ METHOD_LABELS = {
     "min_unc": "BVMC + min unc",
     "anchor": "BVMC + anchor (beyond the paper)",
     "retry": "BVMC + retry (beyond the paper, no task knowledge)",
+    "reach": "BVMC + reach (beyond the paper, no task knowledge)",
 }
 
 

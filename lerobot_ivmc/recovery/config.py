@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, field, fields, replace
 
 # none: Bayesian VMC without recovery; min_unc: the paper's back-track and minimum-uncertainty recovery;
 # rand and init: the paper's baselines ("Baselines for Visuomotor Control Recovery"); anchor (beyond the
 # paper): act on the beliefs of the policy's most certain steps (`recovery/anchor.py`).
-RECOVERY_MODES = ("none", "rand", "init", "min_unc", "anchor", "retry")
+RECOVERY_MODES = ("none", "rand", "init", "min_unc", "anchor", "retry", "reach")
 MIN_UNC_MEMORY = ("restore", "reset", "keep")
 MIN_UNC_CHOICE = ("foresight", "mean", "random")
 ANCHOR_OBJECT = ("memory", "frame")
@@ -16,6 +16,50 @@ ANCHOR_GOAL = ("memory", "frame")
 ANCHOR_HELD_OFFSET = ("believed", "grasped")
 ANCHOR_CARRY_MEMORY = ("keep", "reset")
 RANDOM_STREAMS = ("batch", "episode")
+REACH_BELIEF = ("look", "start", "now")
+
+
+@dataclass
+class ReachSettings:
+    """`--recovery.reach.*`: the settings of `reach` (`strategies/reach.py`), a recovery that knows no task.
+
+    Args:
+        belief: where reach believes the object: "look", the mean of the object head's beliefs over
+            `belief_steps` steps at the start pose with a fresh memory, after returning there (the scene as
+            it is now, seen as at an episode's start); "start", the mean over the episode's first
+            `belief_steps` steps (the scene before the policy touched it); "now", the belief of the step
+            the trigger fires at.
+        belief_steps: the steps the "look" and "start" beliefs average.
+        grasp: after arriving above the object, descend to its believed centre and close the fingers before
+            handing back (false: hand back above it with open fingers, for an object the task never grasps).
+        grasp_tries: with `grasp`, grasps tried while the fingers close on nothing: the first at the
+            believed centre, each later one `search_radius` from it in another direction.
+        search_radius: metres from the believed centre of the later grasps.
+        hover: metres above the believed centre the fingers rise to between grasps.
+        settle_steps: steps the fingers are commanded shut in place when a grasp closes them.
+        steps: most steps of each move (to the object, or one grasp).
+    """
+
+    belief: str = "look"
+    belief_steps: int = 10
+    grasp: bool = True
+    grasp_tries: int = 3
+    search_radius: float = 0.03
+    hover: float = 0.05
+    settle_steps: int = 10
+    steps: int = 80
+
+    def __post_init__(self) -> None:
+        if self.belief not in REACH_BELIEF:
+            raise ValueError(f"--recovery.reach.belief must be one of {REACH_BELIEF}, got {self.belief!r}.")
+        for name in ("belief_steps", "steps", "grasp_tries"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"--recovery.reach.{name} must be >= 1, got {getattr(self, name)}.")
+        for name in ("search_radius", "hover"):
+            if not 0 <= getattr(self, name) <= 0.5:
+                raise ValueError(f"--recovery.reach.{name} is in metres, in [0, 0.5]; got {getattr(self, name)}.")
+        if self.settle_steps < 0:
+            raise ValueError(f"--recovery.reach.settle_steps must be >= 0, got {self.settle_steps}.")
 # anchor's goal is the mean of the goals believed at this many least uncertain steps by default. One step's
 # belief is noisy (pick_place's validation failures: 50% of single-step anchors within the target's 3 cm, 67%
 # of 10-step means); the 10 least uncertain steps can all fall after the goal belief drifted toward the
@@ -148,6 +192,7 @@ class RecoveryConfig:
             episode index): the same episode acts the same whatever the batch size, and a recovery row
             acts exactly as the row without recovery on the same scenes until its own first trigger, so
             the rescued / lost counts hold nothing but the recovery.
+        reach: the settings of `reach` (`ReachSettings`).
     """
 
     mode: str = "none"
@@ -179,6 +224,7 @@ class RecoveryConfig:
     anchor_carry_memory: str | None = None
     max_videos: int = 4
     random_streams: str = "batch"
+    reach: ReachSettings = field(default_factory=ReachSettings)
 
     def for_task_class(self, task_class: type) -> RecoveryConfig:
         """`for_task` with the object handling and geometry of a task's env class (`IvmcFetchEnv`)."""
@@ -314,6 +360,11 @@ class RecoveryConfig:
             raise ValueError(
                 "--recovery.min_unc_memory sets min_unc's memory after its back-track; it has no effect with "
                 f"--recovery.mode={self.mode}: drop it or use --recovery.mode=min_unc."
+            )
+        if self.reach != ReachSettings() and self.mode != "reach":
+            raise ValueError(
+                f"--recovery.reach.* set the reach mode; they have no effect with --recovery.mode={self.mode}: "
+                "drop them or use --recovery.mode=reach."
             )
         if self.rand_step_scale > 1:
             raise ValueError(

@@ -16,7 +16,8 @@ from torch import Tensor
 
 from lerobot_ivmc.envs.embodiment import HOLD, Embodiment
 
-# Phases recorded per step in the traces (CARRY_TO_GOAL to LOOK: `anchor.py`'s manoeuvres; RETRY: retry's).
+# Phases recorded per step in the traces (CARRY_TO_GOAL to LOOK: `anchor.py`'s manoeuvres; RETRY: retry's;
+# REACH: reach's).
 (
     NORMAL,
     BACKTRACK,
@@ -28,7 +29,8 @@ from lerobot_ivmc.envs.embodiment import HOLD, Embodiment
     REGRASP,
     LOOK,
     RETRY,
-) = range(10)
+    REACH,
+) = range(11)
 PHASE_NAMES = (
     "normal",
     "backtrack",
@@ -40,6 +42,7 @@ PHASE_NAMES = (
     "regrasp",
     "look",
     "retry",
+    "reach",
 )
 
 
@@ -236,3 +239,85 @@ class ReturnToStart(Manoeuvre):
     def act(self, grip: np.ndarray, min_unc_action: Callable[[], np.ndarray]) -> np.ndarray:
         self.steps_left -= 1
         return self.embodiment.move_towards(grip, self.waypoints[0], self.embodiment.gripper_open)
+
+
+# A `WaypointPath` stop counts as reached once the grip point has come no closer than STALL_PROGRESS
+# (metres) for STALL_STEPS steps.
+STALL_PROGRESS, STALL_STEPS = 0.002, 5
+
+
+@dataclass
+class Stop:
+    """A grip-point position a `WaypointPath` moves to with a gripper command (`HOLD`: as it is), staying
+    `hold` steps once there."""
+
+    position: np.ndarray
+    gripper: float
+    hold: int = 0
+
+
+class WaypointPath(Manoeuvre):
+    """Moves the grip point through `stops` as fast as the robot's action allows, then hands back to the
+    policy with a fresh memory (at most `steps` steps). A stop the grip point cannot reach (the table or
+    the object blocks it) counts as reached once the grip point has come no closer for `STALL_STEPS` steps.
+
+    Args:
+        stops: in order.
+        steps: most steps of the path.
+        tolerance: metres from a stop that count as reached.
+        embodiment: the robot (its action scale and gripper commands).
+        phase: the phase recorded in the traces.
+        target: the point the recovery event reports, (3,).
+    """
+
+    def __init__(
+        self,
+        stops: list[Stop],
+        steps: int,
+        tolerance: float,
+        embodiment: Embodiment,
+        phase: int,
+        target: np.ndarray,
+    ):
+        self.stops = list(stops)
+        self.steps_left = steps
+        self.tolerance = tolerance
+        self.embodiment = embodiment
+        self.phase = phase
+        self.target = np.asarray(target, dtype=np.float64)
+        self.held = 0
+        self.closest, self.stalled = np.inf, 0  # the stop's closest distance so far, steps since
+        self.finished = False
+
+    def reached(self, grip: np.ndarray) -> bool:
+        """Whether the grip point is at the current stop, or has stalled on its way there."""
+        distance = float(np.linalg.norm(grip - self.stops[0].position))
+        if distance < self.closest - STALL_PROGRESS:
+            self.closest, self.stalled = distance, 0
+        return distance <= self.tolerance or self.stalled >= STALL_STEPS
+
+    def advance(self, grip: np.ndarray) -> MemoryChange | None:
+        while self.stops and self.reached(grip):
+            if self.held < self.stops[0].hold:
+                break
+            self.stops.pop(0)
+            self.held = 0
+            self.closest, self.stalled = np.inf, 0
+        if not self.stops or self.steps_left == 0:
+            self.finished = True
+            return MemoryChange(None)
+        return None
+
+    def act(self, grip: np.ndarray, min_unc_action: Callable[[], np.ndarray]) -> np.ndarray:
+        self.steps_left -= 1
+        stop = self.stops[0]
+        if self.reached(grip):
+            self.held += 1
+        else:
+            self.stalled += 1
+        return self.embodiment.move_towards(grip, stop.position, stop.gripper)
+
+
+def above(point: np.ndarray, height: float) -> np.ndarray:
+    """`point` raised (never lowered) to `height`, (3,)."""
+    return np.array([point[0], point[1], max(float(point[2]), height)], dtype=np.float64)

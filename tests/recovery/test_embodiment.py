@@ -9,14 +9,16 @@ from lerobot_ivmc.envs.fetch_env import EMBODIMENT as FETCH
 from lerobot_ivmc.envs.metaworld.embodiment import SAWYER
 from lerobot_ivmc.recovery.manoeuvres import MoveToInit, RandomMoves
 
-# A robot unlike both: 2 cm per action unit, the gripper opened by 0.5 and closed by -0.5, no no-op.
-FAKE = Embodiment("fake", 0.02, 0.5, -0.5, None, (3, 4, 5), (0,))
+# A robot unlike both: 2 cm per action unit, the gripper opened by 0.5 and closed by -0.5, no no-op, one
+# finger reading 0.2-0.8 on something.
+FAKE = Embodiment("fake", 0.02, 0.5, -0.5, None, (3, 4, 5), (0,), held_gap=(0.2, 0.8))
 
 
 def test_a_move_is_scaled_by_the_robots_metres_per_action_unit() -> None:
     grip, target = np.zeros(3), np.array([0.01, -0.03, 0.0])
     np.testing.assert_allclose(FAKE.move_towards(grip, target, FAKE.gripper_open), [0.5, -1.0, 0.0, 0.5])
-    np.testing.assert_allclose(SAWYER.move_towards(grip, target)[:3], [1.0, -1.0, 0.0])
+    # MetaWorld's mocap target leads the hand: a quarter of the way a step, within the action's limit.
+    np.testing.assert_allclose(SAWYER.move_towards(grip, target)[:3], [0.25, -0.75, 0.0])
     np.testing.assert_allclose(FETCH.move_towards(grip, target)[:3], [0.2, -0.6, 0.0])
     assert np.isnan(FAKE.move_towards(grip, target)[3])  # the fingers left as they are
 
@@ -65,3 +67,9 @@ def test_retry_opens_rises_returns_to_the_start_and_hands_back_with_a_fresh_memo
     assert np.allclose(grip, start, atol=0.005)
     rise = [p for p in path if p[2] < start[2] - 0.005]
     assert all(np.allclose(p[:2], [0.1, 0.7]) for p in rise)  # straight up first, then across
+
+
+def test_the_fingers_hold_something_only_between_closed_on_nothing_and_open() -> None:
+    assert FETCH.holds(np.array([0.024, 0.025])) and not FETCH.holds(np.array([0.001, 0.0]))
+    assert SAWYER.holds(np.array([0.45])) and not SAWYER.holds(np.array([0.29]))
+    assert not SAWYER.holds(np.array([1.0])) and not FAKE.holds(np.array([0.9]))

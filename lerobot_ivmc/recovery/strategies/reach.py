@@ -1,0 +1,156 @@
+"""`reach` (beyond the paper): a recovery that knows no task, only the robot and the policy's heads. The
+failures it targets end with the policy's object belief gone astray (it closes the fingers on nothing and
+then believes the object in the empty hand) while the belief it held of the scene at rest was close. When
+the trigger fires: open the fingers, rise to the start height and move above where the object head
+believed the object (by default after a look from the start pose with a fresh memory: the object may have
+moved since the policy last saw it right); with `grasp`, descend and close on it, trying points around it while the fingers
+close on nothing; then hand back to the policy with a fresh memory."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+from torch import Tensor
+
+from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy, MCPrediction
+from lerobot_ivmc.recovery.config import RecoveryConfig
+from lerobot_ivmc.recovery.manoeuvres import REACH, Manoeuvre, Stop, WaypointPath, above
+from lerobot_ivmc.recovery.strategies.base import RecoveryStrategy
+from lerobot_ivmc.recovery.strategies.registry import register_strategy
+
+if TYPE_CHECKING:
+    from lerobot_ivmc.recovery.controller import IntrospectiveController
+
+# The object's part of the auxiliary heads' targets (`VMCConfig.aux_indices`: end effector, then object).
+OBJECT_PART = slice(3, 6)
+# The directions (world x, y) of the grasps tried after the first, in turn.
+SEARCH_DIRECTIONS = np.array([[1, 0], [-1, 0], [0, 1], [0, -1], [1, 1], [-1, -1], [1, -1], [-1, 1]], float)
+
+
+class ToStart(WaypointPath):
+    """`reach`'s way to the start pose before a look (open fingers, up, across), ending in a fresh memory."""
+
+
+class Look(WaypointPath):
+    """`reach`'s look: still at the start pose, with a fresh memory, while the object beliefs are read."""
+
+
+class Grasp(WaypointPath):
+    """One grasp of `reach`: its try number and the believed object it searches around."""
+
+    def __init__(self, try_index: int, obj: np.ndarray, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.try_index = try_index
+        self.obj = obj
+
+
+@register_strategy("reach")
+class ReachRecovery(RecoveryStrategy):
+    """Move above the object where the policy believed it (open fingers, at the start height), optionally
+    grasp it there (and around it), then the policy again with a fresh memory."""
+
+    reads_fingers = True
+
+    def __init__(self, settings: RecoveryConfig):
+        super().__init__(settings)
+        self.belief_sums = np.zeros((0, 3))  # per rollout, the sum of its start (or look) beliefs so far
+        self.belief_counts = np.zeros(0)
+        self.beliefs_now = np.zeros((0, 3))
+        self.looking = np.zeros(0, dtype=bool)  # per rollout, whether its look's beliefs are being read
+
+    def check(self, policy: BVMCPolicy, state_stats: tuple[Tensor, Tensor] | None) -> None:
+        if policy.config.aux_indices is None:
+            raise ValueError(
+                "--recovery.mode=reach reads the policy's object head: it needs a policy trained on a dataset "
+                "with observation.environment_state (auxiliary heads); use --recovery.mode=retry for this one."
+            )
+        if state_stats is None:
+            raise ValueError("--recovery.mode=reach needs the statistics of observation.state (state_stats).")
+
+    def start_batch(self, batch_size: int) -> None:
+        self.belief_sums = np.zeros((batch_size, 3))
+        self.belief_counts = np.zeros(batch_size)
+        self.beliefs_now = np.zeros((batch_size, 3))
+        self.looking = np.zeros(batch_size, dtype=bool)
+
+    def observe(
+        self,
+        ctx: IntrospectiveController,
+        prediction: MCPrediction,
+        uncertainty: np.ndarray,
+        normal: np.ndarray,
+    ) -> None:
+        """Read where the object head believes the object (metres); add up the beliefs of the episode's
+        first steps ("start") or of the steps still at the start pose after a look's memory reset."""
+        outputs = ctx.policy.net.decode(prediction.embedding, stochastic=False, with_goal=False)
+        indices = list(ctx.policy.config.aux_indices[OBJECT_PART])
+        mean, std = ctx.env_state_mean[indices], ctx.env_state_std[indices]
+        self.beliefs_now = (outputs[3].float().cpu() * std + mean).numpy().astype(np.float64)
+        reading = self.looking.copy()
+        if self.settings.reach.belief == "start" and ctx.step < self.settings.reach.belief_steps:
+            reading |= normal
+        self.belief_sums[reading] += self.beliefs_now[reading]
+        self.belief_counts[reading] += 1
+
+    def believed_object(self, row: int) -> np.ndarray:
+        """(3,) where rollout `row`'s object is, as the `belief` setting says."""
+        if self.settings.reach.belief == "now" or self.belief_counts[row] == 0:
+            return self.beliefs_now[row].copy()
+        return self.belief_sums[row] / self.belief_counts[row]
+
+    def begin(self, ctx: IntrospectiveController, row: int, grip, fingers) -> tuple[Manoeuvre, dict]:
+        reach, robot = self.settings.reach, ctx.embodiment
+        if reach.belief == "look":
+            start = ctx.initial_grip[row]
+            stops = [Stop(above(grip, start[2]), robot.gripper_open), Stop(start, robot.gripper_open)]
+            way = ToStart(stops, reach.steps, self.settings.move_tolerance, robot, REACH, start)
+            return way, {"look_steps": reach.belief_steps}
+        return self.reach(ctx, row, grip)
+
+    def reach(self, ctx: IntrospectiveController, row: int, grip: np.ndarray) -> tuple[Manoeuvre, dict]:
+        """From `grip`, above the believed object (and a grasp of it), and what the event reports."""
+        reach, robot = self.settings.reach, ctx.embodiment
+        obj = self.believed_object(row)
+        over = above(obj, float(ctx.initial_grip[row][2]))
+        stops = [Stop(above(grip, over[2]), robot.gripper_open), Stop(over, robot.gripper_open)]
+        if reach.grasp:
+            return self.grasp(ctx, 0, obj, stops), {"target": obj.round(4).tolist()}
+        path = WaypointPath(stops, reach.steps, self.settings.move_tolerance, robot, REACH, obj)
+        return path, {"target": obj.round(4).tolist()}
+
+    def grasp(self, ctx: IntrospectiveController, try_index: int, obj: np.ndarray, stops: list[Stop]) -> Grasp:
+        """Grasp number `try_index` around the believed object `obj`, after `stops`."""
+        reach, robot = self.settings.reach, ctx.embodiment
+        point = obj.copy()
+        if try_index > 0:
+            direction = SEARCH_DIRECTIONS[(try_index - 1) % len(SEARCH_DIRECTIONS)]
+            point[:2] += reach.search_radius * direction / np.linalg.norm(direction)
+        stops = [
+            *stops,
+            Stop(above(point, obj[2] + reach.hover), robot.gripper_open),
+            Stop(point, robot.gripper_open),
+            Stop(point, robot.gripper_close, hold=reach.settle_steps),
+        ]
+        return Grasp(try_index, obj, stops, reach.steps, self.settings.move_tolerance, robot, REACH, point)
+
+    def follow(self, ctx: IntrospectiveController, row: int, finished, grip, fingers) -> Manoeuvre | None:
+        """After the way to the start pose, the look (its memory now fresh); after the look, the reach;
+        after a grasp that closed on nothing, the next one (open, rise to `hover`) while tries are left."""
+        reach, robot = self.settings.reach, ctx.embodiment
+        if isinstance(finished, ToStart):  # hold still there while the beliefs are read
+            self.belief_sums[row], self.belief_counts[row] = 0.0, 0
+            self.looking[row] = True
+            still = Stop(grip.copy(), robot.gripper_open, hold=reach.belief_steps)
+            return Look([still], reach.belief_steps + 1, np.inf, robot, REACH, grip)
+        if isinstance(finished, Look):
+            self.looking[row] = False
+            manoeuvre, event_extra = self.reach(ctx, row, grip)
+            ctx.traces[-1].events[row][-1].update(event_extra)
+            return manoeuvre
+        if not isinstance(finished, Grasp) or finished.try_index + 1 >= reach.grasp_tries:
+            return None
+        if robot.holds(fingers[row]):
+            return None
+        rise = Stop(above(grip, finished.obj[2] + reach.hover), robot.gripper_open)
+        return self.grasp(ctx, finished.try_index + 1, finished.obj, [rise])

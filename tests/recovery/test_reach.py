@@ -1,0 +1,158 @@
+"""`reach`, the recovery that knows no task: its path on a synthetic robot (no simulator), its grasp
+search, its settings, and in a real env that it reads nothing of the simulator's privileged state."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+import torch
+from test_controller import IDENTITY_STATS, run_episode, scripted_policy
+from test_embodiment import FAKE
+
+from lerobot_ivmc.envs.fetch_env import EMBODIMENT as FETCH_EMBODIMENT
+from lerobot_ivmc.recovery.config import RecoveryConfig, ReachSettings
+from lerobot_ivmc.recovery.controller import BatchTrace, IntrospectiveController
+from lerobot_ivmc.recovery.manoeuvres import REACH, Stop, WaypointPath
+from lerobot_ivmc.recovery.strategies import make_strategy
+
+TABLE = 0.02  # the synthetic world's table: the grip point cannot go lower
+
+
+def stub_controller(belief: np.ndarray, start: np.ndarray) -> SimpleNamespace:
+    """What `reach` reads of the controller: a policy whose object head believes `belief` (metres, identity
+    statistics), the start grip position, the robot and the traces."""
+    decoded = (None, None, None, torch.as_tensor(belief, dtype=torch.float32)[None])
+    policy = SimpleNamespace(
+        config=SimpleNamespace(aux_indices=(0, 1, 2, 3, 4, 5)),
+        net=SimpleNamespace(decode=lambda *args, **kwargs: decoded),
+    )
+    trace = BatchTrace(events=[[{}]])
+    return SimpleNamespace(
+        policy=policy,
+        env_state_mean=torch.zeros(6),
+        env_state_std=torch.ones(6),
+        initial_grip=start[None],
+        embodiment=FAKE,
+        step=0,
+        traces=[trace],
+    )
+
+
+def run_reach(settings: ReachSettings, belief, obj, steps: int = 400) -> tuple[list, list, list]:
+    """Fire `reach` at the first step on the synthetic robot and world (an object at `obj` is held when
+    the fingers close within 1 cm of it); return the manoeuvres in order, the grip path and the gripper
+    commands, until it hands back."""
+    strategy = make_strategy(RecoveryConfig(mode="reach", reach=settings))
+    start, obj = np.array([0.0, 0.0, 0.2]), np.asarray(obj, dtype=np.float64)
+    ctx = stub_controller(np.asarray(belief, dtype=np.float64), start)
+    strategy.start_batch(1)
+    grip, fingers, closed = start.copy(), np.array([1.0]), False
+    strategy.observe(ctx, SimpleNamespace(embedding=None), np.zeros(1), np.ones(1, dtype=bool))
+    manoeuvre, _ = strategy.begin(ctx, 0, grip, fingers[None])
+    manoeuvres, path, commands = [manoeuvre], [], []
+    for _ in range(steps):
+        ctx.step += 1
+        manoeuvre.advance(grip)
+        if manoeuvre.finished:
+            manoeuvre = strategy.follow(ctx, 0, manoeuvre, grip, fingers[None])
+            if manoeuvre is None:
+                break
+            manoeuvres.append(manoeuvre)
+            continue
+        strategy.observe(ctx, SimpleNamespace(embedding=None), np.zeros(1), np.zeros(1, dtype=bool))
+        action = manoeuvre.act(grip, lambda: None)
+        grip = grip + action[:3] * FAKE.metres_per_action_unit
+        grip[2] = max(grip[2], TABLE)
+        if action[3] == FAKE.gripper_close and not closed:  # the fingers shut: on the object or on nothing
+            closed = True
+            fingers = np.array([0.5 if np.linalg.norm(grip[:2] - obj[:2]) < 0.01 else 0.0])
+        elif action[3] == FAKE.gripper_open:
+            closed, fingers = False, np.array([1.0])
+        path.append(grip.copy())
+        commands.append(float(action[3]))
+    return manoeuvres, path, commands
+
+
+def test_reach_looks_from_the_start_then_grasps_around_the_belief_until_the_fingers_hold() -> None:
+    belief, obj = np.array([0.1, 0.05, 0.0]), np.array([0.13, 0.05, 0.0])  # believed 3 cm short in x
+    manoeuvres, path, commands = run_reach(ReachSettings(grasp_tries=3, search_radius=0.03), belief, obj)
+    kinds = [type(m).__name__ for m in manoeuvres]
+    assert kinds == ["ToStart", "Look", "Grasp", "Grasp"]  # the first grasp closed on nothing
+    first, second = manoeuvres[2], manoeuvres[3]
+    np.testing.assert_allclose(first.target, belief)
+    np.testing.assert_allclose(second.target, belief + [0.03, 0.0, 0.0])  # the search's first direction
+    assert commands[0] == FAKE.gripper_open and commands[-1] == FAKE.gripper_close
+    # The table stops the descent 2 cm above the object's centre: the stop counts as reached (stalled).
+    assert min(p[2] for p in path) == TABLE and np.linalg.norm(path[-1][:2] - obj[:2]) < 0.01
+    assert all(m.phase == REACH for m in manoeuvres)
+
+
+def test_reach_hands_back_after_its_last_try_whatever_the_fingers_hold() -> None:
+    belief, obj = np.array([0.1, 0.05, 0.0]), np.array([0.3, 0.3, 0.0])  # nowhere near
+    manoeuvres, _, _ = run_reach(ReachSettings(grasp_tries=2), belief, obj)
+    assert [type(m).__name__ for m in manoeuvres] == ["ToStart", "Look", "Grasp", "Grasp"]
+
+
+def test_reach_without_grasp_stops_above_the_belief_at_the_start_height() -> None:
+    belief = np.array([0.1, 0.05, 0.0])
+    settings = ReachSettings(belief="now", grasp=False)
+    manoeuvres, path, commands = run_reach(settings, belief, belief)
+    assert len(manoeuvres) == 1 and set(commands) == {FAKE.gripper_open}
+    np.testing.assert_allclose(path[-1], [0.1, 0.05, 0.2], atol=0.011)
+
+
+def test_a_waypoint_path_hands_back_with_a_fresh_memory() -> None:
+    path = WaypointPath([Stop(np.array([0.0, 0.0, 0.1]), FAKE.gripper_open)], 50, 0.005, FAKE, REACH, np.zeros(3))
+    grip = np.zeros(3)
+    for _ in range(50):
+        change = path.advance(grip)
+        if path.finished:
+            break
+        grip = grip + path.act(grip, lambda: None)[:3] * FAKE.metres_per_action_unit
+    assert path.finished and change is not None and change.memory is None
+
+
+def test_reach_settings_validate_themselves_and_belong_to_reach() -> None:
+    with pytest.raises(ValueError, match="--recovery.reach.grasp_tries must be >= 1"):
+        ReachSettings(grasp_tries=0)
+    with pytest.raises(ValueError, match="--recovery.reach.belief must be one of"):
+        ReachSettings(belief="later")
+    with pytest.raises(ValueError, match="--recovery.reach.\\* set the reach mode"):
+        RecoveryConfig(mode="retry", reach=ReachSettings(grasp=False))
+
+
+def test_reach_reads_nothing_of_the_simulators_privileged_state() -> None:
+    """The same episode with the object's true position withheld from the controller's input acts the
+    same: reach reads the grip point, the fingers and the policy's heads only."""
+
+    def actions(withhold: bool) -> np.ndarray:
+        stream = [0.0] * 12 + [1.0] + [0.0] * 100
+        policy = scripted_policy(stream, move=[0.0, 0.3, 0.0])
+        cfg = RecoveryConfig(mode="reach", window=1, initial_interval=0, reach=ReachSettings(belief_steps=3))
+        controller = IntrospectiveController(
+            policy,
+            cfg,
+            threshold=0.5,
+            window=1,
+            env_state_stats=IDENTITY_STATS,
+            state_stats=(torch.zeros(9), torch.ones(9)),
+            embodiment=FETCH_EMBODIMENT,
+        )
+        if withhold:  # the policy's input keeps its camera and joints; the object entries become zeros
+            select = controller.select_action
+
+            def blind(batch, **kwargs):
+                batch = dict(batch)
+                batch["observation.environment_state"] = batch["observation.environment_state"].clone()
+                batch["observation.environment_state"][:, 3:] = 0.0
+                return select(batch, **kwargs)
+
+            controller.select_action = blind
+        _, taken = run_episode(controller, steps=60)
+        phases = np.stack(controller.traces[-1].phase)[:, 0]
+        assert (phases == REACH).sum() > 10
+        return np.array(taken)
+
+    np.testing.assert_array_equal(actions(False), actions(True))
