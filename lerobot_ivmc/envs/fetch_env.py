@@ -28,10 +28,11 @@ from gymnasium_robotics.utils import mujoco_utils  # noqa: E402
 
 from lerobot_ivmc.envs import scene_model  # noqa: E402
 from lerobot_ivmc.envs.camera import OBS_TYPES, check_image_size  # noqa: E402
-from lerobot_ivmc.envs.embodiment import Embodiment  # noqa: E402
+from lerobot_ivmc.envs.embodiment import Embodiment
 from lerobot_ivmc.envs.offscreen import StyledRenderers  # noqa: E402
 from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE, check_render_style  # noqa: E402
 from lerobot_ivmc.envs.scenes import Grid, Scene, cell_jitter, scenes_of_split  # noqa: E402
+from lerobot_ivmc.envs.task_traits import PushContact, TaskTraits  # noqa: E402
 
 logger = logging.getLogger(__name__)
 
@@ -105,6 +106,18 @@ class IvmcFetchEnv(gym.Env, EzPickle):
     # picked up at all, and whether the task ends with it still held (else it ends resting at the goal).
     object_picked: ClassVar[bool] = True
     object_held_at_end: ClassVar[bool] = False
+    push_contact: ClassVar[PushContact | None] = None  # how the fingers push the object, where pushed
+
+    @classmethod
+    def traits(cls) -> TaskTraits:
+        """What recovery may know of the task (`envs/task_traits.py`)."""
+        return TaskTraits(
+            cls.object_picked,
+            cls.object_held_at_end,
+            cls.object_shape.rest_height,
+            max(cls.object_shape.half_size),
+            cls.push_contact,
+        )
 
     def __init__(
         self,

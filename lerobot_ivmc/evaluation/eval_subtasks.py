@@ -25,7 +25,12 @@ from lerobot_ivmc.evaluation.feature_stats import env_state_stats, feature_stats
 from lerobot_ivmc.evaluation.loading import load_policy
 from lerobot_ivmc.evaluation.metrics import aggregate_milestones
 from lerobot_ivmc.evaluation.milestone_recorder import MilestoneRecorder
-from lerobot_ivmc.evaluation.plugin_envs import check_plugin_env, embodiment_of, recovery_settings
+from lerobot_ivmc.evaluation.plugin_envs import (
+    check_plugin_env,
+    embodiment_of,
+    recovery_settings,
+    task_traits_of,
+)
 from lerobot_ivmc.evaluation.recovery_videos import (
     RecoveryVideoStore,
     recovery_phase_summary,
@@ -160,6 +165,7 @@ def run_evaluation(cfg: IvmcEvalConfig, output_dir: Path, ignore_stored_threshol
             observers=(video_store,) if video_store is not None else (),
             state_stats=feature_stats(loaded.preprocessor, OBS_STATE),
             embodiment=embodiment_of(cfg.env),
+            task_traits=task_traits_of(cfg.env),
         )
     # Seed again once everything is built: the Monte Carlo masks then do not depend on how many random
     # draws building the policy took (e.g. a checkpoint with or without a foresight head).

@@ -8,6 +8,7 @@ from lerobot.envs.configs import EnvConfig
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
 from lerobot_ivmc.envs.embodiment import Embodiment
 from lerobot_ivmc.envs.metaworld.configuration import SeededMetaworldEnvConfig
+from lerobot_ivmc.envs.task_traits import TaskTraits
 from lerobot_ivmc.recovery.config import RECOVERY_MODES, RecoveryConfig
 
 PLUGIN_ENV_CONFIGS = (IvmcEnv, SeededMetaworldEnvConfig)
@@ -33,13 +34,23 @@ def embodiment_of(env_cfg: EnvConfig) -> Embodiment:
     return SAWYER
 
 
+def task_traits_of(env_cfg: EnvConfig) -> TaskTraits | None:
+    """What recovery may know of the env's task (a Fetch task's object handling and push geometry); None
+    for MetaWorld, whose recovery modes know no task."""
+    if isinstance(env_cfg, IvmcEnv):
+        from lerobot_ivmc.envs import task_env_class
+
+        return task_env_class(env_cfg.task).traits()
+    return None
+
+
 def recovery_settings(recovery: RecoveryConfig, env_cfg: EnvConfig) -> RecoveryConfig:
     """The recovery settings as they act in the env: anchor's task settings resolved for a Fetch task;
     anchor refused elsewhere (it is a planner for the Fetch tasks)."""
     if isinstance(env_cfg, IvmcEnv):
         from lerobot_ivmc.envs import task_env_class
 
-        return recovery.for_task_class(task_env_class(env_cfg.task))
+        return recovery.for_task_traits(task_env_class(env_cfg.task).traits())
     if recovery.mode == "anchor":
         raise ValueError(
             f"--recovery.mode=anchor is a planner for the Fetch tasks (--env.type=ivmc); on {env_cfg.type} "

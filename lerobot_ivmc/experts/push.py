@@ -5,14 +5,12 @@ from __future__ import annotations
 import numpy as np
 
 from lerobot_ivmc.envs.fetch_env import GRIPPER_CLOSE
+from lerobot_ivmc.envs.tasks.push import PUSH_CONTACT
 from lerobot_ivmc.experts.waypoint_expert import Waypoint, WaypointExpert
 
-# Grip point to cube centre when a closed finger pair touches a cube face: 2.5 cm half-width plus the
-# fingers' half-extent along the push (1.35 cm along x, 1.5 cm along y).
-CONTACT_X, CONTACT_Y = 0.0385, 0.04
-APPROACH_GAP = 0.03  # start each push this far from contact
-HOVER = 0.08  # travel height above the cube centre between pushes
-PUSH_SPEED = 0.022
+# The push task's contact geometry (`envs/tasks/push.py`).
+CONTACT_X, CONTACT_Y = PUSH_CONTACT.contact
+APPROACH_GAP, HOVER, PUSH_SPEED = PUSH_CONTACT.approach_gap, PUSH_CONTACT.hover, PUSH_CONTACT.speed
 
 
 class PushExpert(WaypointExpert):

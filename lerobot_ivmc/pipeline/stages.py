@@ -576,6 +576,6 @@ def anchor_settings(mode: str | None, task: str | None) -> dict:
         return {}
     config = RecoveryConfig(mode="anchor")
     if task is not None:
-        config = config.for_task_class(task_env_class(task))
+        config = config.for_task_traits(task_env_class(task).traits())
     settings = {k: v for k, v in asdict(config).items() if k.startswith("anchor_")}
     return json.loads(json.dumps(settings))

@@ -32,9 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from lerobot_ivmc.envs.fetch_env import EMBODIMENT as FETCH
-from lerobot_ivmc.envs.fetch_env import GRIPPER_CLOSE, GRIPPER_OPEN
-from lerobot_ivmc.experts.push import APPROACH_GAP, CONTACT_X, CONTACT_Y, HOVER, PUSH_SPEED
+from lerobot_ivmc.envs.embodiment import Embodiment
+from lerobot_ivmc.envs.task_traits import PushContact
 from lerobot_ivmc.recovery.config import ANCHOR_GOAL_STEPS, MAX_HELD_OFFSET
 from lerobot_ivmc.recovery.manoeuvres import (
     CARRY_TO_GOAL,
@@ -45,9 +44,6 @@ from lerobot_ivmc.recovery.manoeuvres import (
     MemoryChange,
 )
 
-# The fingers hold something when their joint positions sum to a gap between these (metres): fully
-# closed on nothing is ~0, fully open ~0.1; the cube holds them at ~0.048, the stick at ~0.025.
-HELD_GAP = (0.01, 0.09)
 # Carry at least this high above the believed goal (metres), so the object clears the table on the way.
 CARRY_CLEARANCE = 0.05
 # An object that is let go at its goal is lowered to this height above the believed goal (metres) first. One
@@ -73,12 +69,6 @@ PUSH_LEG_MIN = 0.015
 PUSH_LEGS = 3
 
 
-def is_holding(finger_joints: np.ndarray) -> bool:
-    """Whether the fingers (their two joint positions, metres) rest apart on an object."""
-    gap = float(np.sum(finger_joints))
-    return HELD_GAP[0] < gap < HELD_GAP[1]
-
-
 class BeliefAnchor:
     """One rollout's record of the goal the policy believed at each normal step, with its uncertainty; the
     anchored goal is the mean over its `goal_steps` least uncertain steps."""
@@ -102,15 +92,26 @@ class BeliefAnchor:
         return np.mean([self.goals[i] for i in least], axis=0)
 
 
+# A waypoint's gripper: open or closed fingers (the robot's own commands, `Embodiment`).
+OPEN, CLOSE = "open", "close"
+
+
 @dataclass
 class Waypoint:
-    """A grip-point position to move to with a gripper command, at most `speed` metres a step, held `hold`
-    steps once reached."""
+    """A grip-point position to move to with the fingers `OPEN` or `CLOSE`d, at most `speed` metres a step,
+    held `hold` steps once reached."""
 
     position: np.ndarray
-    gripper: int
+    gripper: str | float
     hold: int = 0
     speed: float = ANCHOR_SPEED
+
+
+def gripper_command(embodiment: Embodiment, gripper: str | float) -> float:
+    """The robot's command for `OPEN` or `CLOSE` (a number: that command itself)."""
+    if gripper == OPEN:
+        return embodiment.gripper_open
+    return embodiment.gripper_close if gripper == CLOSE else float(gripper)
 
 
 class WaypointMoves(Manoeuvre):
@@ -118,6 +119,7 @@ class WaypointMoves(Manoeuvre):
 
     Args:
         waypoints: in order.
+        embodiment: the robot (its action scale and gripper commands).
         steps: most steps of the manoeuvre.
         tolerance: metres from a waypoint that count as reached.
         phase: the phase recorded in the traces.
@@ -131,6 +133,7 @@ class WaypointMoves(Manoeuvre):
     def __init__(
         self,
         waypoints: list[Waypoint],
+        embodiment: Embodiment,
         steps: int,
         tolerance: float,
         phase: int,
@@ -140,6 +143,7 @@ class WaypointMoves(Manoeuvre):
         then_push: int = 0,
     ):
         self.waypoints = list(waypoints)
+        self.embodiment = embodiment
         self.target = target
         self.steps_left = steps
         self.tolerance = tolerance
@@ -170,7 +174,7 @@ class WaypointMoves(Manoeuvre):
         distance = float(np.linalg.norm(offset))
         speed = waypoint.speed
         target = waypoint.position if distance <= speed else grip + offset * (speed / distance)
-        return FETCH.move_towards(grip, target, waypoint.gripper)
+        return self.embodiment.move_towards(grip, target, gripper_command(self.embodiment, waypoint.gripper))
 
 
 def rise_towards(grip: np.ndarray, above: np.ndarray) -> np.ndarray:
@@ -188,6 +192,8 @@ def carry_to_goal(
     release: bool,
     max_held_offset: float = MAX_HELD_OFFSET,
     reset_memory: bool | None = None,
+    *,
+    embodiment: Embodiment,
 ) -> WaypointMoves:
     """Holding the object: rise to a carrying height, bring the object (at `held_offset` from the grip
     point, clipped to `max_held_offset`) over `goal` and down to it with the gripper closed; with `release`,
@@ -201,15 +207,17 @@ def carry_to_goal(
     place = np.asarray(goal, dtype=np.float64) - offset + np.array([0.0, 0.0, clearance])
     height = max(float(grip[2]), float(place[2]) + CARRY_CLEARANCE)
     waypoints = [
-        Waypoint(np.array([place[0], place[1], height]), GRIPPER_CLOSE),
-        Waypoint(place, GRIPPER_CLOSE),
+        Waypoint(np.array([place[0], place[1], height]), CLOSE),
+        Waypoint(place, CLOSE),
     ]
     if release:
         waypoints[-1].hold = 1
-        waypoints.append(Waypoint(place, GRIPPER_OPEN, hold=FINGER_STEPS))
-        waypoints.append(Waypoint(place + np.array([0.0, 0.0, RELEASE_LIFT]), GRIPPER_OPEN))
+        waypoints.append(Waypoint(place, OPEN, hold=FINGER_STEPS))
+        waypoints.append(Waypoint(place + np.array([0.0, 0.0, RELEASE_LIFT]), OPEN))
     reset_memory = release if reset_memory is None else reset_memory
-    return WaypointMoves(waypoints, steps, tolerance, CARRY_TO_GOAL, place, reset_memory=reset_memory)
+    return WaypointMoves(
+        waypoints, embodiment, steps, tolerance, CARRY_TO_GOAL, place, reset_memory=reset_memory
+    )
 
 
 class LookFromStart(Manoeuvre):
@@ -227,6 +235,7 @@ class LookFromStart(Manoeuvre):
         steps: steps to hold still at the start pose with the fresh memory.
         travel_steps: most steps of the way there.
         tolerance: metres from the start pose that count as arrived.
+        embodiment: the robot (its action scale).
     """
 
     phase = LOOK
@@ -236,16 +245,20 @@ class LookFromStart(Manoeuvre):
         self,
         grip: np.ndarray,
         start: np.ndarray,
-        gripper: int,
+        gripper: float,
         steps: int,
         travel_steps: int,
         tolerance: float,
+        embodiment: Embodiment,
     ):
         start = np.asarray(start, dtype=np.float64).copy()
         self.target = start
         self.gripper = gripper
+        self.embodiment = embodiment
         waypoints = [Waypoint(rise_towards(grip, start), gripper), Waypoint(start, gripper)]
-        self.travel = WaypointMoves(waypoints, travel_steps, tolerance, LOOK, start, reset_memory=True)
+        self.travel = WaypointMoves(
+            waypoints, embodiment, travel_steps, tolerance, LOOK, start, reset_memory=True
+        )
         self.steps_left = steps
 
     def advance(self, grip: np.ndarray) -> MemoryChange | None:
@@ -259,7 +272,7 @@ class LookFromStart(Manoeuvre):
         if not self.travel.finished:
             return self.travel.act(grip, min_unc_action)
         self.steps_left -= 1
-        return FETCH.move_towards(grip, self.target, self.gripper)
+        return self.embodiment.move_towards(grip, self.target, self.gripper)
 
 
 def on_table(obj: np.ndarray, rest_height: float) -> np.ndarray:
@@ -278,6 +291,8 @@ def regrasp(
     tolerance: float,
     rest_height: float = np.nan,
     grasp_offset: np.ndarray | tuple[float, float, float] = (0.0, 0.0, 0.0),
+    *,
+    embodiment: Embodiment,
 ) -> WaypointMoves:
     """Not holding: open, rise above the grasp point (`grasp_offset` from the believed object's centre, at
     `rest_height`, `on_table`), descend to `GRASP_HEIGHT` above it, close, lift back up; then the controller
@@ -287,13 +302,15 @@ def regrasp(
     grasp = obj + np.asarray(grasp_offset, dtype=np.float64) + np.array([0.0, 0.0, GRASP_HEIGHT])
     above = grasp + np.array([0.0, 0.0, APPROACH_HEIGHT])
     waypoints = [
-        Waypoint(rise_towards(grip, above), GRIPPER_OPEN),
-        Waypoint(above, GRIPPER_OPEN),
-        Waypoint(grasp, GRIPPER_OPEN),
-        Waypoint(grasp, GRIPPER_CLOSE, hold=FINGER_STEPS),
-        Waypoint(above, GRIPPER_CLOSE),
+        Waypoint(rise_towards(grip, above), OPEN),
+        Waypoint(above, OPEN),
+        Waypoint(grasp, OPEN),
+        Waypoint(grasp, CLOSE, hold=FINGER_STEPS),
+        Waypoint(above, CLOSE),
     ]
-    moves = WaypointMoves(waypoints, steps, tolerance, REGRASP, grasp, reset_memory=True, then_carry=True)
+    moves = WaypointMoves(
+        waypoints, embodiment, steps, tolerance, REGRASP, grasp, reset_memory=True, then_carry=True
+    )
     moves.held_offset = obj - grasp
     return moves
 
@@ -306,9 +323,13 @@ def push_to_goal(
     tolerance: float,
     legs: int = PUSH_LEGS,
     rest_height: float = np.nan,
+    *,
+    embodiment: Embodiment,
+    push: PushContact,
 ) -> WaypointMoves:
     """Not holding, without grasping: one straight push of the believed object toward `goal` with closed
-    fingers, as the scripted demos push (`experts/push.py`): rise, move above the point behind the object,
+    fingers, as the scripted demos push (the task's `push` contact geometry): rise, move above the point
+    behind the object,
     descend, push it until it is level with the goal along the leg's axis, lift. The leg runs along the
     axis (x or y) on which the object is believed farther from the goal; it may take the steps its path
     needs at its speeds and `steps` more. With `legs` > 1 the controller, once the leg is over, plans the
@@ -316,23 +337,25 @@ def push_to_goal(
     on the goal (`on_goal`); then it hands back with a fresh memory. The object is pushed at its centre's
     height, `rest_height` where given (`on_table`)."""
     obj, goal = on_table(obj, rest_height), np.asarray(goal, dtype=np.float64)
-    hover = np.array([0.0, 0.0, HOVER])
+    hover = np.array([0.0, 0.0, push.hover])
     if on_goal(obj, goal):  # nothing to push as far as the policy believes: clear the object, hand back
-        above = Waypoint(rise_towards(grip, obj + hover), GRIPPER_CLOSE)
-        return WaypointMoves([above], steps, tolerance, PUSH_TO_GOAL, obj.copy(), reset_memory=True)
+        above = Waypoint(rise_towards(grip, obj + hover), CLOSE)
+        return WaypointMoves(
+            [above], embodiment, steps, tolerance, PUSH_TO_GOAL, obj.copy(), reset_memory=True
+        )
     axis = int(np.argmax(np.abs(goal[:2] - obj[:2])))  # the farther axis first
-    contact = (CONTACT_X, CONTACT_Y)[axis]
+    contact = push.contact[axis]
     side = 1.0 if goal[axis] >= obj[axis] else -1.0
     z = float(obj[2])  # the pushing height: the object's centre, as the demos push
     start, end = np.array([obj[0], obj[1], z]), np.array([obj[0], obj[1], z])
-    start[axis] -= side * (contact + APPROACH_GAP)
+    start[axis] -= side * (contact + push.approach_gap)
     end[axis] = goal[axis] - side * contact
     waypoints = [
-        Waypoint(rise_towards(grip, start + hover), GRIPPER_CLOSE),
-        Waypoint(start + hover, GRIPPER_CLOSE),
-        Waypoint(start, GRIPPER_CLOSE),
-        Waypoint(end, GRIPPER_CLOSE, speed=PUSH_SPEED),
-        Waypoint(end + hover, GRIPPER_CLOSE),
+        Waypoint(rise_towards(grip, start + hover), CLOSE),
+        Waypoint(start + hover, CLOSE),
+        Waypoint(start, CLOSE),
+        Waypoint(end, CLOSE, speed=push.speed),
+        Waypoint(end + hover, CLOSE),
     ]
     pushed_to = np.array([goal[0], goal[1], z])  # where the object should end, after the last leg
     needed = sum(
@@ -341,7 +364,14 @@ def push_to_goal(
     )
     needed += int(np.ceil(np.linalg.norm(waypoints[0].position - grip) / ANCHOR_SPEED))
     return WaypointMoves(
-        waypoints, needed + steps, tolerance, PUSH_TO_GOAL, pushed_to, reset_memory=True, then_push=legs - 1
+        waypoints,
+        embodiment,
+        needed + steps,
+        tolerance,
+        PUSH_TO_GOAL,
+        pushed_to,
+        reset_memory=True,
+        then_push=legs - 1,
     )
 
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, fields, replace
 
+from lerobot_ivmc.envs.task_traits import TaskTraits
+
 # none: Bayesian VMC without recovery; min_unc: the paper's back-track and minimum-uncertainty recovery;
 # rand and init: the paper's baselines ("Baselines for Visuomotor Control Recovery"); anchor (beyond the
 # paper): act on the beliefs of the policy's most certain steps (`recovery/anchor.py`).
@@ -57,9 +59,13 @@ class ReachSettings:
                 raise ValueError(f"--recovery.reach.{name} must be >= 1, got {getattr(self, name)}.")
         for name in ("search_radius", "hover"):
             if not 0 <= getattr(self, name) <= 0.5:
-                raise ValueError(f"--recovery.reach.{name} is in metres, in [0, 0.5]; got {getattr(self, name)}.")
+                raise ValueError(
+                    f"--recovery.reach.{name} is in metres, in [0, 0.5]; got {getattr(self, name)}."
+                )
         if self.settle_steps < 0:
             raise ValueError(f"--recovery.reach.settle_steps must be >= 0, got {self.settle_steps}.")
+
+
 # anchor's goal is the mean of the goals believed at this many least uncertain steps by default. One step's
 # belief is noisy (pick_place's validation failures: 50% of single-step anchors within the target's 3 cm, 67%
 # of 10-step means); the 10 least uncertain steps can all fall after the goal belief drifted toward the
@@ -226,11 +232,10 @@ class RecoveryConfig:
     random_streams: str = "batch"
     reach: ReachSettings = field(default_factory=ReachSettings)
 
-    def for_task_class(self, task_class: type) -> RecoveryConfig:
-        """`for_task` with the object handling and geometry of a task's env class (`IvmcFetchEnv`)."""
-        shape = task_class.object_shape
+    def for_task_traits(self, traits: TaskTraits) -> RecoveryConfig:
+        """`for_task` with a task's object handling and geometry (`IvmcFetchEnv.traits()`)."""
         return self.for_task(
-            task_class.object_picked, task_class.object_held_at_end, shape.rest_height, max(shape.half_size)
+            traits.object_picked, traits.object_held_at_end, traits.rest_height, traits.half_length
         )
 
     def for_task(
@@ -363,8 +368,8 @@ class RecoveryConfig:
             )
         if self.reach != ReachSettings() and self.mode != "reach":
             raise ValueError(
-                f"--recovery.reach.* set the reach mode; they have no effect with --recovery.mode={self.mode}: "
-                "drop them or use --recovery.mode=reach."
+                "--recovery.reach.* set the reach mode; they have no effect with "
+                f"--recovery.mode={self.mode}: drop them or use --recovery.mode=reach."
             )
         if self.rand_step_scale > 1:
             raise ValueError(

@@ -19,6 +19,7 @@ from lerobot.utils.constants import OBS_ENV_STATE, OBS_STATE
 from torch import Tensor
 
 from lerobot_ivmc.envs.embodiment import Embodiment
+from lerobot_ivmc.envs.task_traits import TaskTraits
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
 from lerobot_ivmc.recovery.config import RecoveryConfig
 from lerobot_ivmc.recovery.manoeuvres import FifoEntry, Manoeuvre, MemoryChange
@@ -95,6 +96,8 @@ class IntrospectiveController(BVMCRolloutWrapper):
         state_stats: (mean, std) of `observation.state`, to read the finger joints (where `embodiment`
             says); required by `anchor`, which decides by them whether the robot holds the object.
         embodiment: the robot: where its grip point and fingers are, its action scale and gripper commands.
+        task_traits: what recovery may know of the task (`envs/task_traits.py`; anchor reads it), None
+            where nothing is known.
     """
 
     name = "bvmc_introspective"
@@ -111,9 +114,11 @@ class IntrospectiveController(BVMCRolloutWrapper):
         state_stats: tuple[Tensor, Tensor] | None = None,
         *,
         embodiment: Embodiment,
+        task_traits: TaskTraits | None = None,
     ):
         super().__init__(policy)
         self.embodiment = embodiment
+        self.task_traits = task_traits
         if recovery.mode != "none" and threshold is None:
             raise ValueError(f"Recovery mode {recovery.mode!r} needs a threshold.")
         self.strategy = make_strategy(recovery)

@@ -66,7 +66,15 @@ def test_the_metaworld_smoke_study_runs_end_to_end(tmp_path: Path) -> None:
     assert result.returncode == 0, result.stderr[-3000:]
     results = json.loads((out / "results" / "pick-place-v3.json").read_text())
     assert results["complete"]
-    assert [row["method"] for row in results["rows"]] == ["vmc", "none", "rand", "init", "min_unc", "retry", "reach"]
+    assert [row["method"] for row in results["rows"]] == [
+        "vmc",
+        "none",
+        "rand",
+        "init",
+        "min_unc",
+        "retry",
+        "reach",
+    ]
     assert all(list(row["subtasks"]) == ["success"] for row in results["rows"])
     record = out / "threshold" / "fc1" / "pretrained_model" / "recovery_threshold.json"
     assert json.loads(record.read_text())["task"] == "pick-place-v3"

@@ -26,7 +26,6 @@ from lerobot_ivmc.recovery.anchor import (
     PLACE_CLEARANCE,
     RELEASE_LIFT,
     BeliefAnchor,
-    is_holding,
     push_to_goal,
     regrasp,
 )
@@ -36,13 +35,15 @@ from lerobot_ivmc.recovery.manoeuvres import CARRY_TO_GOAL, LOOK, NORMAL, PUSH_T
 
 STATE_IDENTITY = (torch.zeros(9), torch.ones(9))  # the batch carries raw joint positions
 WITH_GOAL_HEAD = {"goal_head": True, "training_mode": "sequence"}
+# How the push task's fingers push its cube (anchor reads it from the task, `IvmcFetchEnv.traits`).
+PUSH_TRAITS = task_env_class("push").traits()
 
 
-def test_is_holding_reads_the_finger_gap() -> None:
-    assert not is_holding(np.array([0.05, 0.05]))  # open
-    assert not is_holding(np.array([0.001, 0.0005]))  # closed on nothing
-    assert is_holding(np.array([0.024, 0.025]))  # on the 5 cm cube
-    assert is_holding(np.array([0.0125, 0.0125]))  # on the 2.5 cm stick
+def test_the_fetch_fingers_hold_something_by_their_gap() -> None:
+    assert not FETCH_EMBODIMENT.holds(np.array([0.05, 0.05]))  # open
+    assert not FETCH_EMBODIMENT.holds(np.array([0.001, 0.0005]))  # closed on nothing
+    assert FETCH_EMBODIMENT.holds(np.array([0.024, 0.025]))  # on the 5 cm cube
+    assert FETCH_EMBODIMENT.holds(np.array([0.0125, 0.0125]))  # on the 2.5 cm stick
 
 
 def test_belief_anchor_averages_the_goals_of_the_least_uncertain_steps() -> None:
@@ -118,6 +119,7 @@ def anchor_controller(policy: BVMCPolicy, **recovery) -> IntrospectiveController
         env_state_stats=IDENTITY_STATS,
         state_stats=STATE_IDENTITY,
         embodiment=FETCH_EMBODIMENT,
+        task_traits=PUSH_TRAITS,
     )
 
 
@@ -228,6 +230,7 @@ def test_anchor_with_exact_beliefs_completes_pick_reach(expert_steps: int) -> No
         env_state_stats=IDENTITY_STATS,
         state_stats=STATE_IDENTITY,
         embodiment=FETCH_EMBODIMENT,
+        task_traits=PUSH_TRAITS,
     )
     controller.reset()
     success = False
@@ -279,6 +282,7 @@ def test_a_regrasp_carries_the_object_by_the_offset_it_grasped_at(held_offset: s
         env_state_stats=IDENTITY_STATS,
         state_stats=STATE_IDENTITY,
         embodiment=FETCH_EMBODIMENT,
+        task_traits=PUSH_TRAITS,
     )
     start_object = env.object_position.copy()
     controller.reset()
@@ -344,11 +348,23 @@ def test_an_object_not_held_is_grasped_and_pushed_at_the_task_s_rest_height() ->
     cube = task_env_class("pick_place").object_shape
     settings = RecoveryConfig(mode="anchor").for_task(True, False, cube.rest_height)
     assert settings.anchor_rest_height == pytest.approx(0.425)
-    grasp = regrasp(grip, believed, 40, 0.01, settings.anchor_rest_height)
+    grasp = regrasp(grip, believed, 40, 0.01, settings.anchor_rest_height, embodiment=FETCH_EMBODIMENT)
     np.testing.assert_allclose(grasp.target, [1.30, 0.70, 0.425 + GRASP_HEIGHT])
     assert min(w.position[2] for w in grasp.waypoints) == pytest.approx(0.425 + GRASP_HEIGHT)
-    np.testing.assert_allclose(regrasp(grip, believed, 40, 0.01).target[2], 0.463 + GRASP_HEIGHT)  # NaN
-    push = push_to_goal(grip, believed, np.array([1.40, 0.70, 0.425]), 40, 0.01, 1, cube.rest_height)
+    believed_height = regrasp(grip, believed, 40, 0.01, embodiment=FETCH_EMBODIMENT).target[2]
+    np.testing.assert_allclose(believed_height, 0.463 + GRASP_HEIGHT)  # rest height NaN: the believed one
+    goal = np.array([1.40, 0.70, 0.425])
+    push = push_to_goal(
+        grip,
+        believed,
+        goal,
+        40,
+        0.01,
+        1,
+        cube.rest_height,
+        embodiment=FETCH_EMBODIMENT,
+        push=PUSH_TRAITS.push_contact,
+    )
     assert min(w.position[2] for w in push.waypoints) == pytest.approx(0.425)  # the legs at the centre
     given = RecoveryConfig(mode="anchor", anchor_rest_height=float("nan")).for_task(True, False, 0.425)
     assert np.isnan(given.anchor_rest_height)  # the user's choice (the believed height) is kept
@@ -460,6 +476,7 @@ def test_recovery_reads_nothing_of_the_simulator_state(mode: str) -> None:
             env_state_stats=IDENTITY_STATS,
             state_stats=STATE_IDENTITY,
             embodiment=FETCH_EMBODIMENT,
+            task_traits=PUSH_TRAITS,
         )
         env = make_task_env("pick_place", image_size=64)
         observation, _ = env.reset(seed=3)
@@ -489,7 +506,7 @@ def test_anchor_takes_its_object_handling_from_the_task_unless_given() -> None:
         ("pick_place", True, True, 0, "memory", "memory", "reset", 0.05),
         ("pick_reach", True, False, LOOK_STEPS, "frame", "frame", "keep", 0.125),  # held 7 cm off centre
     ]:
-        settings = RecoveryConfig(mode="anchor").for_task_class(task_env_class(task))
+        settings = RecoveryConfig(mode="anchor").for_task_traits(task_env_class(task).traits())
         assert (settings.anchor_grasp, settings.anchor_release) == (grasp, release), task
         assert (settings.anchor_look_steps, settings.anchor_object) == (look, source), task
         assert (settings.anchor_goal, settings.anchor_carry_memory) == (goal, carry_memory), task

@@ -12,7 +12,7 @@ from test_controller import IDENTITY_STATS, run_episode, scripted_policy
 from test_embodiment import FAKE
 
 from lerobot_ivmc.envs.fetch_env import EMBODIMENT as FETCH_EMBODIMENT
-from lerobot_ivmc.recovery.config import RecoveryConfig, ReachSettings
+from lerobot_ivmc.recovery.config import ReachSettings, RecoveryConfig
 from lerobot_ivmc.recovery.controller import BatchTrace, IntrospectiveController
 from lerobot_ivmc.recovery.manoeuvres import REACH, Stop, WaypointPath
 from lerobot_ivmc.recovery.strategies import make_strategy
@@ -104,7 +104,9 @@ def test_reach_without_grasp_stops_above_the_belief_at_the_start_height() -> Non
 
 
 def test_a_waypoint_path_hands_back_with_a_fresh_memory() -> None:
-    path = WaypointPath([Stop(np.array([0.0, 0.0, 0.1]), FAKE.gripper_open)], 50, 0.005, FAKE, REACH, np.zeros(3))
+    path = WaypointPath(
+        [Stop(np.array([0.0, 0.0, 0.1]), FAKE.gripper_open)], 50, 0.005, FAKE, REACH, np.zeros(3)
+    )
     grip = np.zeros(3)
     for _ in range(50):
         change = path.advance(grip)

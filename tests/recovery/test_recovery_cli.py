@@ -303,7 +303,8 @@ def test_cli_ends_with_a_one_line_message(tiny_recovery_checkpoint: Path, tmp_pa
     assert exit_info.value.code == 2
     last_line = capsys.readouterr().err.strip().splitlines()[-1]
     assert last_line.startswith(
-        "error: --recovery.mode must be one of ('none', 'rand', 'init', 'min_unc', 'anchor', 'retry', 'reach')"
+        "error: --recovery.mode must be one of "
+        "('none', 'rand', 'init', 'min_unc', 'anchor', 'retry', 'reach')"
     )
 
 

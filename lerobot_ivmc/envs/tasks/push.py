@@ -5,11 +5,16 @@ from __future__ import annotations
 from lerobot_ivmc.envs.fetch_env import IvmcFetchEnv
 from lerobot_ivmc.envs.scene_model import ObjectShape
 from lerobot_ivmc.envs.scenes import Scene
+from lerobot_ivmc.envs.task_traits import PushContact
 from lerobot_ivmc.envs.tasks.common import TABLE_GRID, distance, rests_on_target
 
 # The gripper touches a face of the cube when its grip point is within this distance of the cube's
 # centre (2.5 cm half-width plus the finger's 1.35 cm half-thickness, plus slack).
 PUSH_REACH_DISTANCE = 0.05
+# How closed fingers push the cube (the scripted expert's and recovery's): grip point to cube centre at
+# contact, 2.5 cm half-width plus the fingers' half-extent along the push (1.35 cm along x, 1.5 cm along y);
+# each push starts 3 cm from contact, travels 8 cm above the cube's centre between pushes, at 2.2 cm a step.
+PUSH_CONTACT = PushContact(contact=(0.0385, 0.04), approach_gap=0.03, hover=0.08, speed=0.022)
 
 
 class PushEnv(IvmcFetchEnv):
@@ -22,6 +27,7 @@ class PushEnv(IvmcFetchEnv):
     object_grid = TABLE_GRID
     target_grid = TABLE_GRID
     object_picked = False  # pushed, never lifted
+    push_contact = PUSH_CONTACT
 
     @classmethod
     def is_valid_scene(cls, scene: Scene) -> bool:

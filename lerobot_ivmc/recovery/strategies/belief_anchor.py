@@ -15,7 +15,6 @@ from lerobot_ivmc.recovery.anchor import (
     BeliefAnchor,
     LookFromStart,
     carry_to_goal,
-    is_holding,
     on_goal,
     push_to_goal,
     regrasp,
@@ -95,7 +94,9 @@ class AnchorRecovery(RecoveryStrategy):
 
     def holding(self, ctx: IntrospectiveController, row: int, fingers: np.ndarray) -> bool:
         """Whether rollout `row` holds the object: it last commanded "close" and the fingers rest apart."""
-        return bool(ctx.last_gripper[row] == ctx.embodiment.gripper_close) and is_holding(fingers[row])
+        return bool(ctx.last_gripper[row] == ctx.embodiment.gripper_close) and ctx.embodiment.holds(
+            fingers[row]
+        )
 
     def begin(
         self, ctx: IntrospectiveController, row: int, grip: np.ndarray, fingers: np.ndarray
@@ -109,6 +110,7 @@ class AnchorRecovery(RecoveryStrategy):
                 s.anchor_look_steps,
                 s.anchor_steps,
                 s.move_tolerance,
+                ctx.embodiment,
             )
             return look, {"look_steps": s.anchor_look_steps}
         return self.act_on_beliefs(ctx, row, grip, fingers)
@@ -121,7 +123,7 @@ class AnchorRecovery(RecoveryStrategy):
         s = self.settings
         holding = self.holding(ctx, row, fingers)
         if holding:
-            manoeuvre = self.carry(row, grip)
+            manoeuvre = self.carry(ctx, row, grip)
         elif s.anchor_grasp:
             manoeuvre = regrasp(
                 grip,
@@ -130,9 +132,10 @@ class AnchorRecovery(RecoveryStrategy):
                 s.move_tolerance,
                 s.anchor_rest_height,
                 s.anchor_grasp_offset,
+                embodiment=ctx.embodiment,
             )
         else:
-            manoeuvre = self.push(row, grip, PUSH_LEGS)
+            manoeuvre = self.push(ctx, row, grip, PUSH_LEGS)
         return manoeuvre, {"holding": holding, "target": manoeuvre.target.round(4).tolist()}
 
     def follow(
@@ -148,12 +151,18 @@ class AnchorRecovery(RecoveryStrategy):
             ctx.traces[-1].events[row][-1].update(event_extra)
             return manoeuvre
         if finished.then_carry and self.holding(ctx, row, fingers):  # a re-grasp that held
-            return self.carry(row, grip, finished.held_offset)
+            return self.carry(ctx, row, grip, finished.held_offset)
         if finished.then_push and not on_goal(self.object_beliefs[row], self.anchors[row].goal):
-            return self.push(row, grip, finished.then_push)
+            return self.push(ctx, row, grip, finished.then_push)
         return None
 
-    def carry(self, row: int, grip: np.ndarray, grasped_offset: np.ndarray | None = None) -> Manoeuvre:
+    def carry(
+        self,
+        ctx: IntrospectiveController,
+        row: int,
+        grip: np.ndarray,
+        grasped_offset: np.ndarray | None = None,
+    ) -> Manoeuvre:
         """Carry the held object to the anchored goal; `grasped_offset`: where anchor's own re-grasp put the
         object's centre from the grip point, used instead of the believed offset where
         `anchor_held_offset` is "grasped"."""
@@ -170,10 +179,18 @@ class AnchorRecovery(RecoveryStrategy):
             s.anchor_release,
             s.anchor_max_held_offset,
             s.anchor_carry_memory == "reset",
+            embodiment=ctx.embodiment,
         )
 
-    def push(self, row: int, grip: np.ndarray, legs: int) -> Manoeuvre:
+    def push(self, ctx: IntrospectiveController, row: int, grip: np.ndarray, legs: int) -> Manoeuvre:
+        """Push the object toward the anchored goal, as the task's push geometry says."""
         s = self.settings
+        traits = ctx.task_traits
+        if traits is None or traits.push_contact is None:
+            raise ValueError(
+                "--recovery.anchor_grasp=false pushes the object: it needs a task whose env defines how "
+                "the fingers push it (push_contact); pass --recovery.anchor_grasp=true or another mode."
+            )
         return push_to_goal(
             grip,
             self.object_beliefs[row],
@@ -182,4 +199,6 @@ class AnchorRecovery(RecoveryStrategy):
             s.move_tolerance,
             legs,
             s.anchor_rest_height,
+            embodiment=ctx.embodiment,
+            push=traits.push_contact,
         )

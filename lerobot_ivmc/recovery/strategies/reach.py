@@ -1,9 +1,8 @@
 """`reach` (beyond the paper): a recovery that knows no task, only the robot and the policy's heads. The
 failures it targets end with the policy's object belief gone astray (it closes the fingers on nothing and
-then believes the object in the empty hand) while the belief it held of the scene at rest was close. When
-the trigger fires: open the fingers, rise to the start height and move above where the object head
-believed the object (by default after a look from the start pose with a fresh memory: the object may have
-moved since the policy last saw it right); with `grasp`, descend and close on it, trying points around it while the fingers
+then believes the object in the empty hand). When the trigger fires: look from the start pose with a fresh
+memory (the object may have moved since the policy last saw it right), move above where the object head
+then believes the object, descend and close on it (`grasp`), trying points around it while the fingers
 close on nothing; then hand back to the policy with a fresh memory."""
 
 from __future__ import annotations
@@ -62,8 +61,8 @@ class ReachRecovery(RecoveryStrategy):
     def check(self, policy: BVMCPolicy, state_stats: tuple[Tensor, Tensor] | None) -> None:
         if policy.config.aux_indices is None:
             raise ValueError(
-                "--recovery.mode=reach reads the policy's object head: it needs a policy trained on a dataset "
-                "with observation.environment_state (auxiliary heads); use --recovery.mode=retry for this one."
+                "--recovery.mode=reach reads the policy's object head: it needs a policy trained on a "
+                "dataset with observation.environment_state (auxiliary heads); use --recovery.mode=retry."
             )
         if state_stats is None:
             raise ValueError("--recovery.mode=reach needs the statistics of observation.state (state_stats).")
@@ -119,7 +118,9 @@ class ReachRecovery(RecoveryStrategy):
         path = WaypointPath(stops, reach.steps, self.settings.move_tolerance, robot, REACH, obj)
         return path, {"target": obj.round(4).tolist()}
 
-    def grasp(self, ctx: IntrospectiveController, try_index: int, obj: np.ndarray, stops: list[Stop]) -> Grasp:
+    def grasp(
+        self, ctx: IntrospectiveController, try_index: int, obj: np.ndarray, stops: list[Stop]
+    ) -> Grasp:
         """Grasp number `try_index` around the believed object `obj`, after `stops`."""
         reach, robot = self.settings.reach, ctx.embodiment
         point = obj.copy()
