@@ -33,7 +33,7 @@ from lerobot_ivmc.pipeline.stage_names import (
     threshold_stage_name,
     train_stage_name,
 )
-from lerobot_ivmc.recovery.config import RecoveryConfig
+from lerobot_ivmc.recovery.config import ReachSettings, RecoveryConfig
 
 CHECKPOINT = LAST_PRETRAINED_MODEL
 # The `--env.type` of each suite's tasks.
@@ -545,7 +545,7 @@ def eval_stage(
     task: str | None = None,
 ) -> Stage:
     """`lerobot-ivmc-eval` on `split` scenes (with `--recovery.mode` and `recovery_flags` for the BVMC
-    rows; an anchor row's settings, resolved for `task`, enter its fingerprint)."""
+    rows; the settings of a strategy beyond the paper, resolved for `task`, enter its fingerprint)."""
     return Stage(
         name,
         [
@@ -563,15 +563,19 @@ def eval_stage(
         output=out,
         done_file=out / EVAL_INFO_FILE,
         depends=[source],
-        settings=anchor_settings(mode, task),
+        settings=strategy_settings(mode, task),
     )
 
 
-def anchor_settings(mode: str | None, task: str | None) -> dict:
-    """For an anchor row, anchor's settings as they act on `task` (its defaults resolved for the task's
-    object): they are chosen on validation scenes (beyond the paper) and may change, per task, which must
-    redo the row. The paper's modes keep the paper's defaults and no settings (so their rows keep their
-    fingerprints)."""
+def strategy_settings(mode: str | None, task: str | None) -> dict:
+    """The settings of a row's strategy beyond the paper as they act on `task`: anchor's (its defaults
+    resolved for the task's object), retry's and reach's. They are chosen on validation scenes and may
+    change, which must redo the row. The paper's modes keep the paper's defaults and no settings (so their
+    rows keep their fingerprints)."""
+    if mode == "retry":
+        return {"retry_steps": RecoveryConfig().retry_steps}
+    if mode == "reach":
+        return {"reach": asdict(ReachSettings())}
     if mode != "anchor":
         return {}
     config = RecoveryConfig(mode="anchor")

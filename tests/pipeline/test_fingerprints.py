@@ -11,7 +11,7 @@ from lerobot_ivmc.pipeline import stages as stages_module
 from lerobot_ivmc.pipeline.runner import fingerprint
 from lerobot_ivmc.pipeline.stages import build_stages
 from lerobot_ivmc.pipeline.study import parse_config
-from lerobot_ivmc.recovery.config import RecoveryConfig
+from lerobot_ivmc.recovery.config import ReachSettings, RecoveryConfig
 
 # The fingerprints of `lerobot-ivmc-pipeline --task=pick_place --preset=lite --train.num_fc_layers=[1]
 # --output_dir=/studies/pick_place_lite` on a CPU with native bf16, as the code of 72da9bb (the running
@@ -137,3 +137,20 @@ def test_episode_streams_redo_the_bvmc_rollouts_only(monkeypatch: pytest.MonkeyP
         "eval_bvmc_fc1_rand",
         "threshold_fc1",
     ]
+
+
+def test_a_changed_reach_default_redoes_the_reach_rows_only(monkeypatch: pytest.MonkeyPatch) -> None:
+    """reach's defaults are chosen on validation scenes too: a changed one redoes its rows only."""
+    cfg = parse_config(["--task=pick-place-v3", "--preset=metaworld", "--output_dir=/studies/pp"])
+
+    def fingerprints() -> dict[str, str]:
+        found: dict[str, str] = {}
+        for stage in build_stages(cfg):
+            found[stage.name] = fingerprint(stage, found)
+        return found
+
+    before = fingerprints()
+    monkeypatch.setattr(stages_module, "ReachSettings", functools.partial(ReachSettings, grasp_tries=5))
+    after = fingerprints()
+    changed = sorted(name for name in before if before[name] != after[name])
+    assert changed == ["eval_bvmc_fc1_reach"]
