@@ -59,7 +59,10 @@ class BeliefReader:
     def __init__(self, loaded: LoadedPolicy):
         self.loaded = loaded
         self.policy = loaded.policy
-        self.mean, self.std = env_state_stats(loaded.preprocessor)
+        mean, std = env_state_stats(loaded.preprocessor)
+        # The heads learn the entries at the policy's aux indices (all six of the Fetch tasks' state).
+        indices = list(self.policy.config.aux_indices or range(len(mean)))
+        self.mean, self.std = mean[indices], std[indices]
         self.bayesian = self.policy.name == "bvmc"
         self.with_goal = bool(getattr(self.policy.config, "goal_head", False))
 

@@ -80,7 +80,8 @@ class AnchorRecovery(RecoveryStrategy):
         head's reading of this frame, metres); add the goals of rollouts in normal operation to their
         anchors."""
         outputs = ctx.policy.net.decode(prediction.embedding, stochastic=False, with_goal=True)
-        mean, std = ctx.env_state_mean[3:], ctx.env_state_std[3:]  # the object's part of the env state
+        indices = list(ctx.policy.config.aux_indices[3:6])  # where the env state keeps the object
+        mean, std = ctx.env_state_mean[indices], ctx.env_state_std[indices]
         believed = outputs[3]
         if self.settings.anchor_object == "frame":  # this frame's reading, without the memory
             believed = ctx.policy.frame_positions[:, OBJECT_POSITION]
