@@ -115,10 +115,16 @@ def _same_file(fd: int, path: Path) -> bool:
     return (held.st_dev, held.st_ino) == (on_disk.st_dev, on_disk.st_ino)
 
 
-def _describe_holder(path: Path) -> str:
-    """The lock holder's pid, host, start time and command, as far as its lock file tells."""
-    try:
-        holder = json.loads(path.read_text())
-        return f"pid {holder['pid']} on {holder['host']}, started {holder['started']}: {holder['command']}"
-    except (OSError, ValueError, KeyError, TypeError):
-        return "pid unknown: it has only just started"
+def _describe_holder(path: Path, wait_s: float = 2.0) -> str:
+    """The lock holder's pid, host, start time and command, as far as its lock file tells; a holder that has
+    only just taken the lock writes them a moment later, so wait up to `wait_s` for them."""
+    deadline = time.monotonic() + wait_s
+    while True:
+        try:
+            holder = json.loads(path.read_text())
+            started = f"started {holder['started']}: {holder['command']}"
+            return f"pid {holder['pid']} on {holder['host']}, {started}"
+        except (OSError, ValueError, KeyError, TypeError):
+            if time.monotonic() >= deadline:
+                return "pid unknown: it has only just started"
+            time.sleep(0.05)

@@ -33,6 +33,9 @@ from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, TASK_ENVS, TASKS, make_task_en
 from lerobot_ivmc.envs.scenes import Scene
 from lerobot_ivmc.scripts.lerobot_ivmc_collect import main, parse_config
 
+# Subprocesses, trainings or whole studies: left out of `bash scripts/test.sh -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 IMAGE_SIZE = 32
 
 

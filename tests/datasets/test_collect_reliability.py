@@ -16,6 +16,9 @@ from lerobot_ivmc.datasets.collect import CollectConfig, collect_demos
 from lerobot_ivmc.envs import DEMO_EPISODE_STEPS
 from lerobot_ivmc.scripts.lerobot_ivmc_collect import main
 
+# Subprocesses, trainings or whole studies: left out of `bash scripts/test.sh -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 IMAGE_SIZE = 32
 
 

@@ -16,6 +16,9 @@ from lerobot.datasets.lerobot_dataset import LeRobotDataset
 from lerobot_ivmc.datasets.collect import collect_demos
 from lerobot_ivmc.datasets.collect_config import CollectConfig
 
+# Subprocesses, trainings or whole studies: left out of `bash scripts/test.sh -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 TASK = "push-v3"
 HUB_KEYS = ("observation.image", "observation.state", "observation.environment_state", "action")
 

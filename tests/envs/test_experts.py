@@ -4,6 +4,9 @@ import pytest
 from lerobot_ivmc.envs import DEMO_EPISODE_STEPS, TASKS, make_task_env
 from lerobot_ivmc.experts import make_expert, run_expert_episode
 
+# Subprocesses, trainings or whole studies: left out of `bash scripts/test.sh -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 
 @pytest.mark.parametrize("task", TASKS)
 def test_expert_succeeds_within_a_demo_on_sampled_scenes(task):

@@ -16,6 +16,9 @@ from lerobot_ivmc.datasets import staging
 from lerobot_ivmc.datasets.collect import CollectConfig, collect_demos
 from lerobot_ivmc.envs import DEMO_EPISODE_STEPS
 
+# Subprocesses, trainings or whole studies: left out of `bash scripts/test.sh -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 KILL_AT = Path(__file__).with_name("kill_at.py")
 N = 3
 POINTS = ["staged", "saving_episode", "finalizing", "before_publish", "publishing", "cleaning_up"]

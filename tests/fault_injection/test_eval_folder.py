@@ -21,6 +21,9 @@ import pytest
 import lerobot_ivmc.checkpoints
 from lerobot_ivmc.datasets.root_lock import EVAL_LOCK_FILE
 
+# Subprocesses, trainings or whole studies: left out of `bash scripts/test.sh -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 # The shipped pick_place bvmc (threshold and foresight head included), on short episodes.
 CHECKPOINT = Path(lerobot_ivmc.checkpoints.__file__).parent / "pick_place_bvmc"
 FLAGS = [

@@ -14,6 +14,9 @@ from pathlib import Path
 import pytest
 from stage_kills import redo_with_a_kill_in_each
 
+# Subprocesses, trainings or whole studies: left out of `bash scripts/test.sh -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 
 @pytest.mark.long
 def test_a_study_killed_in_any_stage_reruns_to_the_uninterrupted_study(tmp_path: Path) -> None:

@@ -11,6 +11,9 @@ from pathlib import Path
 
 import pytest
 
+# Subprocesses, trainings or whole studies: left out of `bash scripts/test.sh -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 sys.path.insert(0, str(Path(__file__).parents[1] / "policies"))  # policy_helpers: the tiny dataset
 
 from policy_helpers import TINY_REPO_ID, build_expert_dataset  # noqa: E402

@@ -13,6 +13,9 @@ from lerobot_ivmc.pipeline.stages import build_stages
 from lerobot_ivmc.scripts.lerobot_ivmc_pipeline import main as pipeline_main
 from lerobot_ivmc.scripts.lerobot_ivmc_pipeline import parse_config
 
+# Subprocesses, trainings or whole studies: left out of `bash scripts/test.sh -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 TASK = "drawer-open-v3"
 
 

@@ -18,6 +18,9 @@ from lerobot_ivmc.pipeline.study import parse_config
 from lerobot_ivmc.recovery.threshold import argmax_threshold
 from lerobot_ivmc.scripts.lerobot_ivmc_pipeline import main as pipeline_main
 
+# Subprocesses, trainings or whole studies: left out of `bash scripts/test.sh -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 ROWS = ["vmc", "none", "rand", "init", "min_unc", "anchor"]
 
 

@@ -19,6 +19,9 @@ from lerobot_ivmc.pipeline.critical_path import critical_path, overlaps
 from lerobot_ivmc.pipeline.runner import STAGES_DIR, PipelineError, run_stages
 from lerobot_ivmc.pipeline.study import make_executor, parse_config, run_studies, split_tasks
 
+# Subprocesses, trainings or whole studies: left out of `bash scripts/test.sh -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 ray = pytest.importorskip("ray")
 from lerobot_ivmc.pipeline.ray_executor import RayExecutor  # noqa: E402
 

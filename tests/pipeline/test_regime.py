@@ -12,6 +12,9 @@ from lerobot_ivmc.pipeline import regime
 from lerobot_ivmc.pipeline.regime import REGIME_FILE, BudgetProbe, choose_budget, run_regime
 from lerobot_ivmc.pipeline.study import parse_config
 
+# Subprocesses, trainings or whole studies: left out of `bash scripts/test.sh -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 
 def probes_for(curve: dict[int, int], episodes: int = 50) -> list[BudgetProbe]:
     """Probes from {demos: validation failures}, largest budget first."""

@@ -22,6 +22,9 @@ from lerobot_ivmc.pipeline.runner import (
 )
 from lerobot_ivmc.pipeline.stages import Stage
 
+# Subprocesses, trainings or whole studies: left out of `bash scripts/test.sh -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 PYTHON = Path(sys.executable).name
 
 

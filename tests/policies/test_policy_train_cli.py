@@ -20,6 +20,9 @@ from policy_helpers import TINY_REPO_ID
 from lerobot_ivmc.datasets.staging import COLLECTION_INFO_PATH
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
 
+# Subprocesses, trainings or whole studies: left out of `bash scripts/test.sh -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 STEPS = 5
 
 

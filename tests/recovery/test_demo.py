@@ -6,7 +6,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from lerobot_ivmc.evaluation.demo import SHIPPED_CHECKPOINT
+
+# Subprocesses, trainings or whole studies: left out of `bash scripts/test.sh -m "not slow"`.
+pytestmark = pytest.mark.slow
 
 
 def test_demo_runs_on_the_shipped_checkpoint_and_writes_its_page(tmp_path: Path) -> None:

@@ -21,6 +21,9 @@ from lerobot_ivmc.evaluation.traces import load_traces
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
 from lerobot_ivmc.recovery.threshold import THRESHOLD_FILE, ThresholdRecord, argmax_threshold
 
+# Subprocesses, trainings or whole studies: left out of `bash scripts/test.sh -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 
 def evaluate(checkpoint: Path, out: Path, *flags: str, n_episodes: int = 2, batch_size: int = 2) -> dict:
     return run_main(
