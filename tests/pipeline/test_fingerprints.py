@@ -59,23 +59,25 @@ def test_studies_begun_earlier_keep_their_stage_fingerprints(monkeypatch: pytest
     assert "trained_task" not in train.settings and train.settings["render_style"] == "fast"
 
 
+def stage_fingerprints(cfg) -> dict[str, str]:
+    """Every stage's fingerprint in a study of `cfg`, by stage name."""
+    found: dict[str, str] = {}
+    for stage in build_stages(cfg):
+        found[stage.name] = fingerprint(stage, found)
+    return found
+
+
 def test_a_changed_anchor_default_redoes_the_anchor_rows_only(monkeypatch: pytest.MonkeyPatch) -> None:
     """anchor's defaults are chosen on validation scenes and may change: the rows that ran with the old ones
     must not count as done, and no other stage may be redone for it."""
     monkeypatch.setattr(stages_module, "cpu_has_native_bf16", lambda: True)
     cfg = parse_config(["--task=push", "--preset=lite", "--output_dir=/studies/push_lite"])
 
-    def fingerprints() -> dict[str, str]:
-        found: dict[str, str] = {}
-        for stage in build_stages(cfg):
-            found[stage.name] = fingerprint(stage, found)
-        return found
-
-    before = fingerprints()
+    before = stage_fingerprints(cfg)
     monkeypatch.setattr(
         stages_module, "RecoveryConfig", functools.partial(RecoveryConfig, anchor_look_steps=3)
     )
-    after = fingerprints()
+    after = stage_fingerprints(cfg)
     changed = sorted(name for name in before if before[name] != after[name])
     assert changed == ["eval_bvmc_fc1_anchor", "eval_bvmc_fc2_anchor"]
 
@@ -143,14 +145,8 @@ def test_a_changed_reach_default_redoes_the_reach_rows_only(monkeypatch: pytest.
     """reach's defaults are chosen on validation scenes too: a changed one redoes its rows only."""
     cfg = parse_config(["--task=pick-place-v3", "--preset=metaworld", "--output_dir=/studies/pp"])
 
-    def fingerprints() -> dict[str, str]:
-        found: dict[str, str] = {}
-        for stage in build_stages(cfg):
-            found[stage.name] = fingerprint(stage, found)
-        return found
-
-    before = fingerprints()
+    before = stage_fingerprints(cfg)
     monkeypatch.setattr(stages_module, "ReachSettings", functools.partial(ReachSettings, grasp_tries=5))
-    after = fingerprints()
+    after = stage_fingerprints(cfg)
     changed = sorted(name for name in before if before[name] != after[name])
     assert changed == ["eval_bvmc_fc1_reach"]
