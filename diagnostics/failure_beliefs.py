@@ -9,7 +9,7 @@ far the believed goal is from the believed object and from the target, and the m
 (action units, gripper excluded) over the last 20 steps; with the goal head, for episodes that grasped
 the object, also the believed goal's error at the start, the grasp and the release. A policy that idles
 with its believed goal on its believed object, while the true object is elsewhere, believes the task done
-(docs/RESULTS.md, push).
+(docs/archive/RESULTS_superseded.md, "push: the failures are beliefs, and init's fresh start clears them").
 
     for s in 0 3 4; do lerobot-ivmc-inspect --policy.path=<bvmc> --env.type=ivmc --env.task=push \\
         --env.split=test --env.episode_length=200 --episode_seed=$s --output_dir=<out>; done

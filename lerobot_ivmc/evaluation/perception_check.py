@@ -20,7 +20,8 @@ from lerobot_ivmc.experts import WaypointExpert, make_expert
 
 RECORD_FILE = "perception.json"
 DRIVERS = ("watching_expert", "acting")
-# Acting object error of the lite pick_place policies that learned (docs/RESULTS.md, the perception check).
+# Acting object error of the lite pick_place policies that learned (docs/archive/RESULTS_superseded.md,
+# "pick_place: the perception check (which training runs learned where the cube is)").
 LEARNED_CM = "0.9 to 2.0"
 
 
@@ -138,7 +139,8 @@ def failure_message(record: dict, path: Path) -> str:
         f"error: the {record['policy_type']} at {record['policy_path']} did not learn where the object is: "
         f"acting on {scenes}, its estimate of the object's position is off by a median {acting:.1f} cm "
         f"over the first {record['steps']} steps (limit {record['max_object_error_cm']:g} cm; on "
-        f"pick_place, policies that learned it measured {LEARNED_CM} cm, docs/RESULTS.md; details: {path}). "
+        f"pick_place, policies that learned it measured {LEARNED_CM} cm, docs/archive/RESULTS_superseded.md; "
+        f"details: {path}). "
         "Rows evaluated from it would say little about recovery. Train it again from another seed or for "
         "longer (lerobot-ivmc-pipeline: --train.seed=..., --train.steps=...), or go on with it by lifting "
         "the limit (0 only reports; --perception.max_object_error_cm=0 in the pipeline)."

@@ -210,7 +210,8 @@ class PipelineConfig:
         async_envs: foresight, threshold and evaluation stages step each sub-env in its own process
             (`--eval.use_async_envs`; the same episodes as in one process). Off by default: on 2 cores, 10
             sub-env processes evaluated 100 pick_place episodes in 118.7 s against 107.2 s in one process
-            (benchmarks/bench_eval.py, README "Benchmarks"); machines with more cores than that gain.
+            (benchmarks/bench_eval.py, docs/benchmarks.md "Benchmarks"); machines with more cores than that
+            gain.
         random_streams: the BVMC rollouts' random draws (`--recovery.random_streams` of the threshold, the
             BVMC rows, Fig. 3 and the data-budget probes): "batch" (the default, as the recorded studies
             drew them) or "episode" (each episode its own streams: a recovery row acts as plain BVMC on the

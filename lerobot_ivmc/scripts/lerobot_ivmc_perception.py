@@ -7,11 +7,12 @@ steps, how far that estimate is from the true position (cm), twice: watching the
 demos' distribution) and acting itself (closed loop, what the evaluations see). The scene's error is the
 median over its steps, the policy's the median over scenes.
 
-Some training runs never learn to find the object on their own (docs/RESULTS.md: a second training seed of
-the lite recipe, acting error 12.5-15.5 cm against 0.9-2.0 for the runs that learned; it placed in 2-9% of
-test scenes). With `--max_object_error_cm` > 0 the record says whether the acting error stays within it,
-and the command exits 1 when it does not (after writing its record; `--fail_above_limit=false` only records
-the verdict), so a pipeline stops there.
+Some training runs never learn to find the object on their own (docs/archive/RESULTS_superseded.md,
+"pick_place: the perception check (which training runs learned where the cube is)": a second training
+seed of the lite recipe, acting error 12.5-15.5 cm against 0.9-2.0 for the runs that learned; it placed in
+2-9% of test scenes). With `--max_object_error_cm` > 0 the record says whether the acting error stays
+within it, and the command exits 1 when it does not (after writing its record; `--fail_above_limit=false`
+only records the verdict), so a pipeline stops there.
 
     lerobot-ivmc-perception --policy.path=<checkpoint> --env.type=ivmc --env.task=pick_place \\
         --env.split=val --n_scenes=20 --seed=0 --output_dir=outputs/perception

@@ -7,7 +7,8 @@ into one results JSON, as one study with `--train.extra_seeds` would have writte
 Each study is a `lerobot-ivmc-pipeline` run of the same task, preset and setup with its own `--train.seed`
 (or `--train.extra_seeds`). The output holds the first study's Table I rows and figures, and under
 `training_seeds` every seed's rows, their mean and standard deviation, and each recovery mode's rescue
-pooled over the seeds with its exact test (README, "The results JSON"); the markdown goes beside it.
+pooled over the seeds with its exact test (docs/pipeline.md, "The study pipeline: Table I and Fig. 3 in one
+command"); the markdown goes beside it.
 """
 
 # No `from __future__ import annotations`: LeRobot's parser.wrap reads the config class from the annotation.

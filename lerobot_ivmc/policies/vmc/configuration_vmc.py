@@ -24,8 +24,9 @@ TRAINING_MODES = ("sequence", "window")
 CHUNK_MEMORY_MODES = ("stored", "zero")
 # Gripper commands close / no-op / open; class index = command + 1.
 GRIPPER_COMMANDS = (-1.0, 0.0, 1.0)
-# Default Adam learning rates per training mode (README, "Sequence training": 6e-4 made the 10,000-step
-# whole-demo schedule place as well as 36,000 window steps at 3e-4).
+# Default Adam learning rates per training mode: 6e-4 made the 10,000-step whole-demo schedule place as
+# well as 36,000 window steps at 3e-4 (docs/training_experiments.md, "Sequence training with the carried
+# memory").
 SEQUENCE_LR = 6e-4
 WINDOW_LR = 3e-4
 # What a checkpoint saved before sequence training became the default (or before render styles existed)
@@ -63,13 +64,14 @@ class VMCConfig(PreTrainedConfig):
         lstm_dim: LSTM width, also the size of the embedding e_t.
         fc_dim: width of the fully connected layers after the LSTM.
         num_fc_layers: #fc, fully connected layers after the LSTM (the paper: 1 or 2).
-        training_mode: what one training sample is. "sequence" (the default: measured better, README,
-            "Sequence training"): a chunk of `chunk_length` consecutive frames
-            of one demo that fits inside the episode (with the default, a whole 100-step demo); the LSTM
-            runs over the chunk from the memory `chunk_memory` says (with whole episodes: from zero at the
-            episode start, as at rollout), each frame goes through the CNN once, and every frame's action is
-            a label. "window": the K frames up to a frame, the LSTM from zero memory over them, the last
-            frame's action the only label (each frame goes through the CNN about K times per epoch).
+        training_mode: what one training sample is. "sequence" (the default: measured better,
+            docs/training_experiments.md, "Sequence training with the carried memory"): a chunk of
+            `chunk_length` consecutive frames of one demo
+            that fits inside the episode (with the default, a whole 100-step demo); the LSTM runs over the
+            chunk from the memory `chunk_memory` says (with whole episodes: from zero at the episode start,
+            as at rollout), each frame goes through the CNN once, and every frame's action is a label.
+            "window": the K frames up to a frame, the LSTM from zero memory over them, the last frame's
+            action the only label (each frame goes through the CNN about K times per epoch).
         chunk_length: frames per chunk in sequence training, at most the shortest demo. Chunks start only
             where they fit (`drop_n_last_frames`, LeRobot's episode-aware sampler): with chunk_length equal
             to the demo length every frame weighs the same. (Chunks from any frame, padded past the episode's
@@ -86,21 +88,24 @@ class VMCConfig(PreTrainedConfig):
             `reset()`, as in sequence training. "window": the memory is the state representations of the last
             K frames and the LSTM re-runs from zero memory over them at every step, as in window training. A
             window-trained policy drifts with a carried memory it never saw (measured: VMC, K = 4, 12,000
-            steps, 20 validation scenes: reach 35% carried vs 95% with "window"; README).
+            steps, 20 validation scenes: reach 35% carried vs 95% with "window"; docs/training_experiments.md,
+            "K = 4 `vmc` and `bvmc` on 2,000 demos (the window baseline)").
         goal_head: beyond the paper: a fifth head predicts, from every frame, where the object is at the end
             of its demonstration (on the target in push and pick-and-place), an MSE loss weighed like the
             auxiliary ones. The paper's policies learn the target's position only through the action loss,
-            and place last (README). Needs sequence training on whole demos (`chunk_length` equal to every
-            demo's length), so that each chunk's last frame is its demo's end. None (the default): on in
-            sequence training, off in window training; false is the paper's network.
+            and place last (docs/training_experiments.md, "Sequence training with the carried memory").
+            Needs sequence training on whole demos (`chunk_length` equal to every demo's length), so that
+            each chunk's last frame is its demo's end. None (the default): on in sequence training, off in
+            window training; false is the paper's network.
         frame_position_head: beyond the paper: a linear head reads the end-effector and object positions
             (with `goal_head` also the object's position at the demo's end, i.e. the target) from each
             frame's CNN feature map alone (before the LSTM, without the state), MSE losses weighed like the
             auxiliary ones on every trained frame. The paper's auxiliary heads read the LSTM embedding,
             which can answer from the carried memory (the expert's path so far) instead of the image; this
             head makes the CNN find the cube (and the target) in every frame. A training target only, never
-            used to act; on by default (it made the policies reach the cube 2 to 4 times sooner, README);
-            false is the paper's network.
+            used to act; on by default (it made the policies reach the cube 2 to 4 times sooner: runs 8 to 10
+            of docs/training_experiments.md, "Sequence training with the carried memory"); false is the
+            paper's network.
         aux_state_indices: the entries of `observation.environment_state` the auxiliary heads learn, the
             end effector's x, y, z then the object's (six). None: all six of a 6-D environment state (the
             Fetch datasets); with another state (MetaWorld's 39-D: [0, 1, 2, 4, 5, 6], which
