@@ -200,47 +200,6 @@ class MoveToInit(Manoeuvre):
         return self.embodiment.move_towards(grip, self.target, self.embodiment.gripper_open)
 
 
-class ReturnToStart(Manoeuvre):
-    """retry: open the fingers, rise to the start height, return to the episode's start grip position and
-    hand back to the policy with a fresh memory (at most `steps` steps), as a new episode from the scene as
-    it now is.
-
-    Args:
-        grip: the grip point now, (3,).
-        start: the grip point at the episode's start, (3,).
-        steps: most steps of the way.
-        tolerance: metres from a waypoint that count as reached.
-        embodiment: the robot (its action scale and gripper command).
-    """
-
-    phase = RETRY
-
-    def __init__(
-        self, grip: np.ndarray, start: np.ndarray, steps: int, tolerance: float, embodiment: Embodiment
-    ):
-        start = np.asarray(start, dtype=np.float64).copy()
-        above = np.asarray(grip, dtype=np.float64).copy()
-        above[2] = max(above[2], start[2])
-        self.waypoints = [above, start]
-        self.target = start
-        self.steps_left = steps
-        self.tolerance = tolerance
-        self.embodiment = embodiment
-        self.finished = False
-
-    def advance(self, grip: np.ndarray) -> MemoryChange | None:
-        while self.waypoints and np.linalg.norm(grip - self.waypoints[0]) <= self.tolerance:
-            self.waypoints.pop(0)
-        if not self.waypoints or self.steps_left == 0:
-            self.finished = True
-            return MemoryChange(None)
-        return None
-
-    def act(self, grip: np.ndarray, min_unc_action: Callable[[], np.ndarray]) -> np.ndarray:
-        self.steps_left -= 1
-        return self.embodiment.move_towards(grip, self.waypoints[0], self.embodiment.gripper_open)
-
-
 # A `WaypointPath` stop counts as reached once the grip point has come no closer than STALL_PROGRESS
 # (metres) for STALL_STEPS steps.
 STALL_PROGRESS, STALL_STEPS = 0.002, 5
@@ -321,3 +280,25 @@ class WaypointPath(Manoeuvre):
 def above(point: np.ndarray, height: float) -> np.ndarray:
     """`point` raised (never lowered) to `height`, (3,)."""
     return np.array([point[0], point[1], max(float(point[2]), height)], dtype=np.float64)
+
+
+class ReturnToStart(WaypointPath):
+    """retry: open the fingers, rise to the start height, return to the episode's start grip position and
+    hand back to the policy with a fresh memory (at most `steps` steps), as a new episode from the scene as
+    it now is.
+
+    Args:
+        grip: the grip point now, (3,).
+        start: the grip point at the episode's start, (3,).
+        steps: most steps of the way.
+        tolerance: metres from a waypoint that count as reached.
+        embodiment: the robot (its action scale and gripper command).
+    """
+
+    def __init__(
+        self, grip: np.ndarray, start: np.ndarray, steps: int, tolerance: float, embodiment: Embodiment
+    ):
+        start = np.asarray(start, dtype=np.float64).copy()
+        open_ = embodiment.gripper_open
+        stops = [Stop(above(grip, float(start[2])), open_), Stop(start, open_)]
+        super().__init__(stops, steps, tolerance, embodiment, RETRY, start)
