@@ -66,20 +66,13 @@ class ReachSettings:
             raise ValueError(f"--recovery.reach.settle_steps must be >= 0, got {self.settle_steps}.")
 
 
-# anchor's goal is the mean of the goals believed at this many least uncertain steps by default. One step's
-# belief is noisy (pick_place's validation failures: 50% of single-step anchors within the target's 3 cm, 67%
-# of 10-step means); the 10 least uncertain steps can all fall after the goal belief drifted toward the
-# object (push: 89% within 3 cm against 100% for 30 steps), and 30 steps rescued as many or more on the
-# validation scenes of every policy tried (docs/RESULTS.md, "anchor's goal over 30 steps").
+# anchor's goal is the mean of the goals believed at this many least uncertain steps: one step's belief is
+# noisy, and fewer steps can all fall after the belief drifted
+# (docs/RESULTS.md, "anchor's goal over 30 steps").
 ANCHOR_GOAL_STEPS = 30
-# Before anchor pushes an object, by default, the arm looks from the start pose this many steps with a fresh
-# memory and anchor reads the object where the frame position head places it: on push's validation failures
-# the object head on the memory was a median 9.3 cm off at the end of such a look, the frame head 4.2 cm,
-# and the look of 6 steps with the frame head rescued the most (docs/RESULTS.md, "push: the frame head").
-# The same for an object held at the end (pick_reach's stick), and the goal read from the frame head too: on
-# its validation failures after a missed grasp the memory believed the stick in the empty hand, and the
-# memory's goal sat a median 2.2-3.1 cm from the demos' end per training seed, the frame head's 1.0-1.5 cm
-# (docs/RESULTS.md, "pick_reach: the frame head").
+# Before anchor goes for a pushed object (or one held at the end), the arm looks from the start pose this
+# many steps with a fresh memory and anchor reads the frame position head, which a false memory does not
+# mislead (docs/RESULTS.md, "push: the frame head" and "pick_reach: the frame head").
 LOOK_STEPS = 6
 # A carry corrects the believed offset of a held object's centre from the grip point up to the object's
 # longest half-size plus this margin (metres): 5 cm for pick_place's cube, 12.5 cm for pick_reach's stick,
@@ -96,10 +89,9 @@ class RecoveryConfig:
     """How a Bayesian VMC rollout detects trouble and recovers (`--recovery.<field>=` on the eval CLI).
 
     Args:
-        mode: "none", "rand", "init", "min_unc" or "anchor" (beyond the paper; a policy trained with
-            `goal_head`): holding the object, carry it to the goal the policy believed over its least
-            uncertain steps; not holding it, grasp it again where the policy believes it and carry it
-            there; then the policy goes on with a fresh memory (`recovery/anchor.py`).
+        mode: the recovery strategy (`recovery/strategies/`): "none", the paper's "rand", "init" and
+            "min_unc", and beyond the paper "anchor" (a planner for the Fetch tasks on the policy's
+            beliefs), "retry" and "reach" (they know no task: docs/recovery.md).
         threshold: C, the window-sum threshold. None: read from the checkpoint's `recovery_threshold.json`
             (written by `lerobot-ivmc-threshold`); a value given here wins.
         window: steps in the sliding window of uncertainties (the paper: 20, "best avoids noisy peaks").
@@ -163,25 +155,21 @@ class RecoveryConfig:
             goal belief drifted toward the object).
         anchor_goal: which head the anchored goal is read from: "memory", the goal head on the LSTM's state;
             "frame" (a policy trained with the frame position head and the goal head): that head's reading of
-            each frame alone. None: from the task, "frame" for an object held at the end (pick_reach's
-            validation failures, three training seeds: the frame head's 30-step goal a median 1.0-1.5 cm
-            from the demos' end, 95-100% within the target's 3 cm; the memory's 2.2-3.1 cm, 43-69%), else
-            "memory".
+            each frame alone. None: from the task, "frame" for an object held at the end, else "memory"
+            (docs/RESULTS.md, "pick_reach: the frame head").
         anchor_grasp_offset: where anchor closes the fingers on an object it re-grasps, from the object's
-            believed centre (metres, world x, y, z). The centre by default: on pick_reach's validation
-            failures a re-grasp at the demos' grasp point (7 cm toward the stick's near end,
-            `[-0.07,0,0]`) rescued 15 of 54, one at the centre 25 (docs/RESULTS.md).
+            believed centre (metres, world x, y, z). The centre by default (it rescued more on pick_reach's
+            validation failures than the demos' grasp point, `[-0.07,0,0]`: docs/RESULTS.md).
         anchor_held_offset: after a re-grasp that holds, the carry places the object by the offset the
             policy believes ("believed", as a carry of an object the policy picked itself does) or by the
             one it was grasped at ("grasped": the object's centre at `-anchor_grasp_offset` from the
-            fingers). On pick_reach's validation failures the two rescued as many (docs/RESULTS.md).
+            fingers); the two rescued as many on pick_reach's validation failures (docs/RESULTS.md).
         anchor_carry_memory: the memory the policy goes on with after a carry: "reset" (a fresh one, as after
             init's and rand's moves: a belief that stalled the policy goes with it) or "keep". None: from the
             task ("reset" where anchor lets the object go at the goal, else "keep").
         anchor_max_held_offset: the largest believed offset (metres) of a held object's centre from the
             grip point that a carry corrects for (a larger belief is shortened to it). None: from the task,
-            the object's longest half-size + `HELD_OFFSET_MARGIN` (5 cm for pick_place's cube, 12.5 cm for
-            pick_reach's stick, which the grasp holds 7 cm from its centre).
+            the object's longest half-size + `HELD_OFFSET_MARGIN`.
         anchor_object: which of the policy's heads anchor reads the object's position from. "memory": the
             object head on the LSTM's state, which carries what the policy believed before; "frame" (a
             policy trained with the frame position head): that head's reading of the current frame's CNN
