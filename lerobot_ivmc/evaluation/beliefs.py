@@ -16,16 +16,20 @@ from torch import Tensor
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
 from lerobot_ivmc.evaluation.feature_stats import env_state_stats
 from lerobot_ivmc.evaluation.loading import LoadedPolicy
+from lerobot_ivmc.evaluation.plugin_envs import check_plugin_env
 from lerobot_ivmc.policies.vmc.network import deterministic_action
 from lerobot_ivmc.recovery.foresight_ranking import batch_observations
 
 GRIP, OBJECT = slice(0, 3), slice(3, 6)
 
 
-def check_network_request(cfg: EvalPipelineConfig, command: str) -> None:
-    """Refuse, naming `command`, a config whose env is not an ivmc task or whose policy is not a vmc or
-    bvmc checkpoint (the networks whose beliefs `BeliefReader` reads)."""
-    if not isinstance(cfg.env, IvmcEnv):
+def check_network_request(cfg: EvalPipelineConfig, command: str, any_plugin_env: bool = False) -> None:
+    """Refuse, naming `command`, a config whose env is not an ivmc task (with `any_plugin_env`: not one of
+    the plugin's envs) or whose policy is not a vmc or bvmc checkpoint (the networks whose beliefs
+    `BeliefReader` reads)."""
+    if any_plugin_env:
+        check_plugin_env(cfg.env, command)
+    elif not isinstance(cfg.env, IvmcEnv):
         raise ValueError(f"{command} runs on --env.type=ivmc, got {cfg.env.type!r}.")
     if cfg.policy is None or cfg.policy.pretrained_path is None:
         raise ValueError("Pass --policy.path=<vmc or bvmc checkpoint folder>.")

@@ -7,6 +7,7 @@ import json
 import subprocess
 import sys
 from pathlib import Path
+from unittest import mock
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -123,6 +124,30 @@ def test_stock_lerobot_train_and_eval_run_bvmc_on_metaworld(demos: Path, tmp_pat
     result = subprocess.run(evaluate, capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stderr[-3000:]
     assert (tmp_path / "eval" / "eval_info.json").exists()
+    # lerobot-ivmc-inspect reads the trained network's beliefs next to MetaWorld's true positions.
+    from lerobot_ivmc.envs.metaworld.env import SeededMetaworldEnv
+    from lerobot_ivmc.scripts.lerobot_ivmc_inspect import inspect_main
+
+    inspect = [
+        "lerobot-ivmc-inspect",
+        f"--policy.path={checkpoint}",
+        "--env.type=meta_world",
+        f"--env.task={TASK}",
+        "--env.episode_length=4",
+        "--env.split=val",
+        "--episode_seed=2",
+        "--print_every=0",
+        f"--output_dir={tmp_path / 'inspect'}",
+    ]
+    with mock.patch.object(sys, "argv", inspect):
+        record = inspect_main()
+    env = SeededMetaworldEnv(TASK, split="val")
+    env.reset(seed=2)
+    np.testing.assert_allclose(record["per_step"]["object"][0], env.object_position)
+    np.testing.assert_allclose(record["per_step"]["target"][0], env.target_position)
+    np.testing.assert_allclose(record["per_step"]["grip"][0], env.grip_position)
+    env.close()
+    assert record["steps"] == 4 and np.asarray(record["per_step"]["believed_object"]).shape == (4, 3)
 
 
 def test_stock_lerobot_train_runs_bvmc_on_480_px_hub_layout_frames_resized_for_the_network(

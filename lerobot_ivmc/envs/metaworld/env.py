@@ -27,7 +27,12 @@ from lerobot_ivmc.envs.metaworld import (  # noqa: E402
     check_metaworld_task,
     require_metaworld,
 )
-from lerobot_ivmc.envs.metaworld.env_state import AGENT_POS_DIM, STATE_DIM  # noqa: E402
+from lerobot_ivmc.envs.metaworld.env_state import (  # noqa: E402
+    AGENT_POS_DIM,
+    HAND_POSITION,
+    OBJECT_POSITION,
+    STATE_DIM,
+)
 from lerobot_ivmc.envs.metaworld.scenes import scene_key  # noqa: E402
 from lerobot_ivmc.envs.offscreen import StyledRenderers  # noqa: E402
 from lerobot_ivmc.envs.render_styles import check_render_style  # noqa: E402
@@ -133,8 +138,28 @@ class SeededMetaworldEnv(MetaworldEnv):
         self.renderers.close()
         super().close()
 
+    @property
+    def grip_position(self) -> np.ndarray:
+        """(3,) the hand's grip point (MetaWorld's tcp centre), metres."""
+        return self._last_state[list(HAND_POSITION)].copy()
+
+    @property
+    def object_position(self) -> np.ndarray:
+        """(3,) the task's first object, metres."""
+        return self._last_state[list(OBJECT_POSITION)].copy()
+
+    @property
+    def target_position(self) -> np.ndarray:
+        """(3,) the task's goal, metres."""
+        return np.asarray(self._env._target_pos, dtype=np.float64).copy()
+
+    def is_grasped(self) -> bool:
+        """Whether both finger pads touch the task's object (MetaWorld's own contact test)."""
+        return bool(self._env.touching_main_object)
+
     def _observation(self, raw_obs: np.ndarray) -> dict[str, np.ndarray]:
         raw_obs = np.asarray(raw_obs, dtype=np.float64)
+        self._last_state = raw_obs.copy()
         return {
             "pixels": self._render(self.image_size),
             "agent_pos": raw_obs[:AGENT_POS_DIM].copy(),
