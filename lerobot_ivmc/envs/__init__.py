@@ -62,9 +62,14 @@ def make_task_env(task: str, **kwargs) -> IvmcFetchEnv:
     return task_env_class(task)(**kwargs)
 
 
-def make_task_env_from_config(env_cfg) -> IvmcFetchEnv:
-    """The bare env an `IvmcEnv` config describes (its gym kwargs; the caller's loop keeps the time limit)."""
+def make_task_env_from_config(env_cfg):
+    """The bare env an `ivmc` or `meta_world` config describes (its gym kwargs; the caller's loop keeps the
+    time limit): an `IvmcFetchEnv` or a `SeededMetaworldEnv`."""
     kwargs = {k: v for k, v in env_cfg.gym_kwargs.items() if k != "max_episode_steps"}
+    if env_cfg.type == "meta_world":
+        from lerobot_ivmc.envs.metaworld.env import SeededMetaworldEnv
+
+        return SeededMetaworldEnv(**kwargs)
     return make_task_env(env_cfg.task, **kwargs)
 
 

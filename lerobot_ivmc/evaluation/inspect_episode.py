@@ -9,10 +9,10 @@ import numpy as np
 import torch
 from lerobot.configs.eval import EvalPipelineConfig
 
+from lerobot_ivmc.envs import make_task_env_from_config
 from lerobot_ivmc.evaluation.beliefs import BeliefReader, check_network_request
 from lerobot_ivmc.evaluation.compatibility import check_policy_matches_env
 from lerobot_ivmc.evaluation.loading import load_policy
-from lerobot_ivmc.evaluation.plugin_envs import make_plugin_env
 
 AXES = "xyz"
 
@@ -57,7 +57,7 @@ def inspect_episode(cfg: InspectConfig) -> dict:
     """Run the episode and return its per-step record (lists, one entry per step) and final milestones."""
     check_inputs(cfg)
     reader = BeliefReader(load_policy(cfg))
-    env = make_plugin_env(cfg.env)
+    env = make_task_env_from_config(cfg.env)
     try:
         torch.manual_seed(cfg.seed or 0)  # the Monte Carlo masks
         observation, _ = env.reset(seed=cfg.episode_seed)

@@ -23,18 +23,6 @@ def check_plugin_env(env_cfg: EnvConfig, command: str) -> None:
         )
 
 
-def make_plugin_env(env_cfg: EnvConfig):
-    """The bare env of an `ivmc` or `meta_world` config (its gym kwargs; the caller's loop keeps the time
-    limit), with `grip_position`, `object_position`, `target_position` and `is_grasped()` for inspection."""
-    if isinstance(env_cfg, IvmcEnv):
-        from lerobot_ivmc.envs import make_task_env_from_config
-
-        return make_task_env_from_config(env_cfg)
-    from lerobot_ivmc.envs.metaworld.env import SeededMetaworldEnv
-
-    return SeededMetaworldEnv(**{k: v for k, v in env_cfg.gym_kwargs.items() if k != "max_episode_steps"})
-
-
 def embodiment_of(env_cfg: EnvConfig) -> Embodiment:
     """The robot of the env (what recovery moves)."""
     if isinstance(env_cfg, IvmcEnv):

@@ -42,6 +42,7 @@ from lerobot_ivmc.recovery.manoeuvres import (
     REGRASP,
     Manoeuvre,
     MemoryChange,
+    above,
 )
 
 # Carry at least this high above the believed goal (metres), so the object clears the table on the way.
@@ -177,12 +178,6 @@ class WaypointMoves(Manoeuvre):
         return self.embodiment.move_towards(grip, target, gripper_command(self.embodiment, waypoint.gripper))
 
 
-def rise_towards(grip: np.ndarray, above: np.ndarray) -> np.ndarray:
-    """Straight up from `grip` to the height of `above` (or stay, if already higher): no sweep low over
-    the table on the way there."""
-    return np.array([grip[0], grip[1], max(float(grip[2]), float(above[2]))])
-
-
 def carry_to_goal(
     grip: np.ndarray,
     goal: np.ndarray,
@@ -255,7 +250,7 @@ class LookFromStart(Manoeuvre):
         self.target = start
         self.gripper = gripper
         self.embodiment = embodiment
-        waypoints = [Waypoint(rise_towards(grip, start), gripper), Waypoint(start, gripper)]
+        waypoints = [Waypoint(above(grip, start[2]), gripper), Waypoint(start, gripper)]
         self.travel = WaypointMoves(
             waypoints, embodiment, travel_steps, tolerance, LOOK, start, reset_memory=True
         )
@@ -300,13 +295,13 @@ def regrasp(
     sits from the grip point, (3,)."""
     obj = on_table(obj, rest_height)
     grasp = obj + np.asarray(grasp_offset, dtype=np.float64) + np.array([0.0, 0.0, GRASP_HEIGHT])
-    above = grasp + np.array([0.0, 0.0, APPROACH_HEIGHT])
+    over = grasp + np.array([0.0, 0.0, APPROACH_HEIGHT])
     waypoints = [
-        Waypoint(rise_towards(grip, above), OPEN),
-        Waypoint(above, OPEN),
+        Waypoint(above(grip, over[2]), OPEN),
+        Waypoint(over, OPEN),
         Waypoint(grasp, OPEN),
         Waypoint(grasp, CLOSE, hold=FINGER_STEPS),
-        Waypoint(above, CLOSE),
+        Waypoint(over, CLOSE),
     ]
     moves = WaypointMoves(
         waypoints, embodiment, steps, tolerance, REGRASP, grasp, reset_memory=True, then_carry=True
@@ -339,9 +334,9 @@ def push_to_goal(
     obj, goal = on_table(obj, rest_height), np.asarray(goal, dtype=np.float64)
     hover = np.array([0.0, 0.0, push.hover])
     if on_goal(obj, goal):  # nothing to push as far as the policy believes: clear the object, hand back
-        above = Waypoint(rise_towards(grip, obj + hover), CLOSE)
+        clear = Waypoint(above(grip, obj[2] + push.hover), CLOSE)
         return WaypointMoves(
-            [above], embodiment, steps, tolerance, PUSH_TO_GOAL, obj.copy(), reset_memory=True
+            [clear], embodiment, steps, tolerance, PUSH_TO_GOAL, obj.copy(), reset_memory=True
         )
     axis = int(np.argmax(np.abs(goal[:2] - obj[:2])))  # the farther axis first
     contact = push.contact[axis]
@@ -351,7 +346,7 @@ def push_to_goal(
     start[axis] -= side * (contact + push.approach_gap)
     end[axis] = goal[axis] - side * contact
     waypoints = [
-        Waypoint(rise_towards(grip, start + hover), CLOSE),
+        Waypoint(above(grip, start[2] + push.hover), CLOSE),
         Waypoint(start + hover, CLOSE),
         Waypoint(start, CLOSE),
         Waypoint(end, CLOSE, speed=push.speed),

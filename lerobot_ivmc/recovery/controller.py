@@ -129,6 +129,9 @@ class IntrospectiveController(BVMCRolloutWrapper):
         self.threshold = np.inf if recovery.mode == "none" or threshold is None else float(threshold)
         self.window = window
         self.env_state_mean, self.env_state_std = env_state_stats
+        # Where the environment state keeps the object the auxiliary heads learn (None: no such heads).
+        aux = policy.config.aux_indices
+        self._object_entries = None if aux is None else list(aux[3:6])
         self.seed = seed
         self._row_draws: dict[int, tuple[np.random.Generator, torch.Generator]] = {}
         self._mask_draws: list[torch.Generator] = []
@@ -204,6 +207,12 @@ class IntrospectiveController(BVMCRolloutWrapper):
             return None
         rows = self._mask_draws
         return self.policy.draw_noise(len(rows), self.policy.config.num_samples, rows)
+
+    def object_positions(self, normalised: Tensor) -> np.ndarray:
+        """(B, 3) world positions (metres) of object-space head outputs (B, 3): the object and goal heads,
+        normalised as the object's entries of `observation.environment_state`."""
+        mean, std = self.env_state_mean[self._object_entries], self.env_state_std[self._object_entries]
+        return (normalised.float().cpu() * std + mean).numpy().astype(np.float64)
 
     def grip_positions(self, batch: dict[str, Tensor]) -> np.ndarray:
         """(B, 3) world positions of the grip point, from the normalised environment state."""

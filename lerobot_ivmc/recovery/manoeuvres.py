@@ -278,8 +278,9 @@ class WaypointPath(Manoeuvre):
 
 
 def above(point: np.ndarray, height: float) -> np.ndarray:
-    """`point` raised (never lowered) to `height`, (3,)."""
-    return np.array([point[0], point[1], max(float(point[2]), height)], dtype=np.float64)
+    """`point` raised (never lowered) to `height`, (3,): the way straight up from the grip point, with no
+    sweep low over the table."""
+    return np.array([point[0], point[1], max(float(point[2]), float(height))], dtype=np.float64)
 
 
 class ReturnToStart(WaypointPath):

@@ -31,8 +31,7 @@ def stub_controller(belief: np.ndarray, start: np.ndarray) -> SimpleNamespace:
     trace = BatchTrace(events=[[{}]])
     return SimpleNamespace(
         policy=policy,
-        env_state_mean=torch.zeros(6),
-        env_state_std=torch.ones(6),
+        object_positions=lambda normalised: normalised.float().numpy().astype(np.float64),
         initial_grip=start[None],
         embodiment=FAKE,
         step=0,

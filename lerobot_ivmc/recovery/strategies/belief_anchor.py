@@ -80,16 +80,14 @@ class AnchorRecovery(RecoveryStrategy):
         head's reading of this frame, metres); add the goals of rollouts in normal operation to their
         anchors."""
         outputs = ctx.policy.net.decode(prediction.embedding, stochastic=False, with_goal=True)
-        indices = list(ctx.policy.config.aux_indices[3:6])  # where the env state keeps the object
-        mean, std = ctx.env_state_mean[indices], ctx.env_state_std[indices]
         believed = outputs[3]
         if self.settings.anchor_object == "frame":  # this frame's reading, without the memory
             believed = ctx.policy.frame_positions[:, OBJECT_POSITION]
-        self.object_beliefs = (believed.float().cpu() * std + mean).numpy().astype(np.float64)
+        self.object_beliefs = ctx.object_positions(believed)
         goals = outputs[4]
         if self.settings.anchor_goal == "frame":  # each frame's reading, averaged by the anchor
             goals = ctx.policy.frame_positions[:, GOAL_POSITION]
-        goals = (goals.float().cpu() * std + mean).numpy().astype(np.float64)
+        goals = ctx.object_positions(goals)
         for row in np.flatnonzero(normal):
             self.anchors[row].update(float(uncertainty[row]), goals[row])
 

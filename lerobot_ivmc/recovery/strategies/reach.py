@@ -21,8 +21,6 @@ from lerobot_ivmc.recovery.strategies.registry import register_strategy
 if TYPE_CHECKING:
     from lerobot_ivmc.recovery.controller import IntrospectiveController
 
-# The object's part of the auxiliary heads' targets (`VMCConfig.aux_indices`: end effector, then object).
-OBJECT_PART = slice(3, 6)
 # The directions (world x, y) of the grasps tried after the first, in turn.
 SEARCH_DIRECTIONS = np.array([[1, 0], [-1, 0], [0, 1], [0, -1], [1, 1], [-1, -1], [1, -1], [-1, 1]], float)
 
@@ -83,9 +81,7 @@ class ReachRecovery(RecoveryStrategy):
         """Read where the object head believes the object (metres); add up the beliefs of the episode's
         first steps ("start") or of the steps still at the start pose after a look's memory reset."""
         outputs = ctx.policy.net.decode(prediction.embedding, stochastic=False, with_goal=False)
-        indices = list(ctx.policy.config.aux_indices[OBJECT_PART])
-        mean, std = ctx.env_state_mean[indices], ctx.env_state_std[indices]
-        self.beliefs_now = (outputs[3].float().cpu() * std + mean).numpy().astype(np.float64)
+        self.beliefs_now = ctx.object_positions(outputs[3])
         reading = self.looking.copy()
         if self.settings.reach.belief == "start" and ctx.step < self.settings.reach.belief_steps:
             reading |= normal
