@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from lerobot_ivmc.experts import demo_end_object
-from lerobot_ivmc.recovery.config import ANCHOR_GOAL_STEPS
 from lerobot_ivmc.recovery.strategies import belief_anchor
+from lerobot_ivmc.recovery.strategy_settings import ANCHOR_GOAL_STEPS
 from lerobot_ivmc.scripts.lerobot_ivmc_eval import eval_main
 
 GOAL_POSITION = belief_anchor.GOAL_POSITION

@@ -35,6 +35,7 @@ from lerobot_ivmc.recovery.controller import IntrospectiveController
 from lerobot_ivmc.recovery.foresight_ranking import batch_observations
 from lerobot_ivmc.recovery.manoeuvres import LOOK
 from lerobot_ivmc.recovery.strategies.belief_anchor import OBJECT_POSITION
+from lerobot_ivmc.recovery.strategy_settings import AnchorSettings
 
 WINDOW = 20
 STEPS = 200
@@ -80,7 +81,9 @@ def run_scene(
     reader = BeliefReader(loaded)  # its statistics map the frame head's reading to metres
     env_class = task_env_class(task)
     # anchor's controller keeps the memory head's belief each step; without recovery it never fires.
-    recovery = RecoveryConfig(mode="anchor", anchor_look_steps=look_steps or 0, anchor_object="memory")
+    recovery = RecoveryConfig(
+        mode="anchor", anchor=AnchorSettings(look_steps=look_steps or 0, object="memory")
+    )
     recovery = recovery.for_task(
         env_class.object_picked, env_class.object_held_at_end, env_class.object_shape.rest_height
     )

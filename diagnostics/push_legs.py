@@ -34,7 +34,7 @@ def push_scene(env, seed: int, noise: float, rng: np.random.Generator) -> tuple[
 
     goal = believed(env.target_position)
     moves = push_to_goal(
-        env.grip_position, believed(env.object_position), goal, cfg.anchor_steps, cfg.move_tolerance
+        env.grip_position, believed(env.object_position), goal, cfg.anchor.steps, cfg.move_tolerance
     )
     for step in range(MAX_STEPS):
         moves.advance(env.grip_position)
@@ -43,7 +43,7 @@ def push_scene(env, seed: int, noise: float, rng: np.random.Generator) -> tuple[
             if not moves.then_push or on_goal(obj, goal):
                 return False, step
             moves = push_to_goal(
-                env.grip_position, obj, goal, cfg.anchor_steps, cfg.move_tolerance, moves.then_push
+                env.grip_position, obj, goal, cfg.anchor.steps, cfg.move_tolerance, moves.then_push
             )
             moves.advance(env.grip_position)
         *_, info = env.step(moves.act(env.grip_position, lambda: None))

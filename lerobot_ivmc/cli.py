@@ -39,10 +39,22 @@ def check_policy_path(argv: list[str]) -> None:
                 ) from None
 
 
+def check_renamed_flags(argv: list[str]) -> None:
+    """Refuse a flat flag of earlier versions with the nested one that replaced it."""
+    from lerobot_ivmc.recovery.strategy_settings import renamed_flag
+
+    for arg in argv:
+        if (replacement := renamed_flag(arg)) is not None:
+            raise ValueError(
+                f"{arg} is now {replacement}: each recovery mode's settings are nested under it."
+            )
+
+
 def run_cli(main: Callable[[], object]) -> None:
     """Run `main`; a bad input exits with status 2 and `error: <message>` (IVMC_TRACEBACK=1 re-raises)."""
     try:
         check_policy_path(sys.argv[1:])
+        check_renamed_flags(sys.argv[1:])
         main()
     except USER_ERRORS as error:
         if os.environ.get("IVMC_TRACEBACK"):

@@ -33,7 +33,7 @@ from lerobot_ivmc.pipeline.stage_names import (
     threshold_stage_name,
     train_stage_name,
 )
-from lerobot_ivmc.recovery.config import ReachSettings, RecoveryConfig
+from lerobot_ivmc.recovery.strategy_settings import AnchorSettings, ReachSettings, RetrySettings
 
 CHECKPOINT = LAST_PRETRAINED_MODEL
 # The `--env.type` of each suite's tasks.
@@ -347,9 +347,9 @@ def row_stages(
     task = task_env_class(cfg.task) if "anchor" in cfg.recovery_modes else None
     if task is not None and cfg.train.policy.frame_position_head is False:
         if not task.object_picked or task.object_held_at_end:
-            anchor_flags.append("--recovery.anchor_object=memory")
+            anchor_flags.append("--recovery.anchor.object=memory")
         if task.object_held_at_end:
-            anchor_flags.append("--recovery.anchor_goal=memory")
+            anchor_flags.append("--recovery.anchor.goal=memory")
     stages = []
     for policy_type, checkpoint, mode, source in rows:
         name = eval_stage_name(policy_type, fc, mode, train_seed)
@@ -573,13 +573,12 @@ def strategy_settings(mode: str | None, task: str | None) -> dict:
     change, which must redo the row. The paper's modes keep the paper's defaults and no settings (so their
     rows keep their fingerprints)."""
     if mode == "retry":
-        return {"retry_steps": RecoveryConfig().retry_steps}
+        return {"retry_steps": RetrySettings().steps}
     if mode == "reach":
         return {"reach": asdict(ReachSettings())}
     if mode != "anchor":
         return {}
-    config = RecoveryConfig(mode="anchor")
+    anchor = AnchorSettings()
     if task is not None:
-        config = config.for_task_traits(task_env_class(task).traits())
-    settings = {k: v for k, v in asdict(config).items() if k.startswith("anchor_")}
-    return json.loads(json.dumps(settings))
+        anchor = anchor.for_traits(task_env_class(task).traits())
+    return json.loads(json.dumps(anchor.as_flat_dict()))  # (the keys the recorded rows' fingerprints hold)

@@ -34,7 +34,6 @@ import numpy as np
 
 from lerobot_ivmc.envs.embodiment import Embodiment
 from lerobot_ivmc.envs.task_traits import PushContact
-from lerobot_ivmc.recovery.config import ANCHOR_GOAL_STEPS, MAX_HELD_OFFSET
 from lerobot_ivmc.recovery.manoeuvres import (
     CARRY_TO_GOAL,
     LOOK,
@@ -44,6 +43,7 @@ from lerobot_ivmc.recovery.manoeuvres import (
     MemoryChange,
     above,
 )
+from lerobot_ivmc.recovery.strategy_settings import ANCHOR_GOAL_STEPS, MAX_HELD_OFFSET
 
 # Carry at least this high above the believed goal (metres), so the object clears the table on the way.
 CARRY_CLEARANCE = 0.05

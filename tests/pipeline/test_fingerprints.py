@@ -11,7 +11,7 @@ from lerobot_ivmc.pipeline import stages as stages_module
 from lerobot_ivmc.pipeline.runner import fingerprint
 from lerobot_ivmc.pipeline.stages import build_stages
 from lerobot_ivmc.pipeline.study import parse_config
-from lerobot_ivmc.recovery.config import ReachSettings, RecoveryConfig
+from lerobot_ivmc.recovery.strategy_settings import AnchorSettings, ReachSettings, RetrySettings
 
 # The fingerprints of `lerobot-ivmc-pipeline --task=pick_place --preset=lite --train.num_fc_layers=[1]
 # --output_dir=/studies/pick_place_lite` on a CPU with native bf16, as the code of 72da9bb (the running
@@ -74,9 +74,7 @@ def test_a_changed_anchor_default_redoes_the_anchor_rows_only(monkeypatch: pytes
     cfg = parse_config(["--task=push", "--preset=lite", "--output_dir=/studies/push_lite"])
 
     before = stage_fingerprints(cfg)
-    monkeypatch.setattr(
-        stages_module, "RecoveryConfig", functools.partial(RecoveryConfig, anchor_look_steps=3)
-    )
+    monkeypatch.setattr(stages_module, "AnchorSettings", functools.partial(AnchorSettings, look_steps=3))
     after = stage_fingerprints(cfg)
     changed = sorted(name for name in before if before[name] != after[name])
     assert changed == ["eval_bvmc_fc1_anchor", "eval_bvmc_fc2_anchor"]
@@ -85,10 +83,10 @@ def test_a_changed_anchor_default_redoes_the_anchor_rows_only(monkeypatch: pytes
 @pytest.mark.parametrize(
     ("task", "frame_head", "flags"),
     [
-        ("push", "false", ["--recovery.anchor_object=memory"]),
+        ("push", "false", ["--recovery.anchor.object=memory"]),
         ("push", "true", []),
         ("pick_place", "false", []),
-        ("pick_reach", "false", ["--recovery.anchor_object=memory", "--recovery.anchor_goal=memory"]),
+        ("pick_reach", "false", ["--recovery.anchor.object=memory", "--recovery.anchor.goal=memory"]),
         ("pick_reach", "true", []),
     ],
 )
@@ -141,12 +139,20 @@ def test_episode_streams_redo_the_bvmc_rollouts_only(monkeypatch: pytest.MonkeyP
     ]
 
 
-def test_a_changed_reach_default_redoes_the_reach_rows_only(monkeypatch: pytest.MonkeyPatch) -> None:
-    """reach's defaults are chosen on validation scenes too: a changed one redoes its rows only."""
+@pytest.mark.parametrize(
+    ("settings", "changed_default", "row"),
+    [("ReachSettings", {"grasp_tries": 5}, "reach"), ("RetrySettings", {"steps": 30}, "retry")],
+)
+def test_a_changed_default_of_a_generic_strategy_redoes_its_rows_only(
+    settings: str, changed_default: dict, row: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """reach's and retry's defaults are chosen on validation scenes too: a changed one redoes its rows
+    only."""
     cfg = parse_config(["--task=pick-place-v3", "--preset=metaworld", "--output_dir=/studies/pp"])
+    classes = {"ReachSettings": ReachSettings, "RetrySettings": RetrySettings}
 
     before = stage_fingerprints(cfg)
-    monkeypatch.setattr(stages_module, "ReachSettings", functools.partial(ReachSettings, grasp_tries=5))
+    monkeypatch.setattr(stages_module, settings, functools.partial(classes[settings], **changed_default))
     after = stage_fingerprints(cfg)
     changed = sorted(name for name in before if before[name] != after[name])
-    assert changed == ["eval_bvmc_fc1_reach"]
+    assert changed == [f"eval_bvmc_fc1_{row}"]

@@ -29,9 +29,10 @@ from lerobot_ivmc.recovery.anchor import (
     push_to_goal,
     regrasp,
 )
-from lerobot_ivmc.recovery.config import LOOK_STEPS, RECOVERY_MODES, RecoveryConfig
+from lerobot_ivmc.recovery.config import RECOVERY_MODES, RecoveryConfig
 from lerobot_ivmc.recovery.controller import IntrospectiveController
 from lerobot_ivmc.recovery.manoeuvres import CARRY_TO_GOAL, LOOK, NORMAL, PUSH_TO_GOAL, REGRASP
+from lerobot_ivmc.recovery.strategy_settings import LOOK_STEPS, AnchorSettings
 
 STATE_IDENTITY = (torch.zeros(9), torch.ones(9))  # the batch carries raw joint positions
 WITH_GOAL_HEAD = {"goal_head": True, "training_mode": "sequence"}
@@ -66,12 +67,12 @@ def test_anchor_goal_steps_reach_back_past_a_drifted_goal_belief() -> None:
             anchor.update(u, np.array([x, 0.0, 0.0]))
     np.testing.assert_allclose(anchors[10].goal, [1.0, 0.0, 0.0])
     np.testing.assert_allclose(anchors[30].goal, [10 / 30, 0.0, 0.0])
-    config = RecoveryConfig(mode="anchor", anchor_goal_steps=10)
-    assert config.for_task(object_picked=False, object_held_at_end=False).anchor_goal_steps == 10
-    with pytest.raises(ValueError, match="anchor_goal_steps must be >= 1"):
-        RecoveryConfig(mode="anchor", anchor_goal_steps=0)
+    config = RecoveryConfig(mode="anchor", anchor=AnchorSettings(goal_steps=10))
+    assert config.for_task(object_picked=False, object_held_at_end=False).anchor.goal_steps == 10
+    with pytest.raises(ValueError, match="anchor.goal_steps must be >= 1"):
+        RecoveryConfig(mode="anchor", anchor=AnchorSettings(goal_steps=0))
     with pytest.raises(ValueError, match="no effect with --recovery.mode=min_unc"):
-        RecoveryConfig(mode="min_unc", anchor_goal_steps=10)
+        RecoveryConfig(mode="min_unc", anchor=AnchorSettings(goal_steps=10))
 
 
 def believing(
@@ -109,8 +110,9 @@ def frame_head_reads(policy: BVMCPolicy, part: slice, position: np.ndarray) -> N
     policy.net.encode_with_positions = frame_reading
 
 
-def anchor_controller(policy: BVMCPolicy, **recovery) -> IntrospectiveController:
-    cfg = RecoveryConfig(mode="anchor", window=1, initial_interval=0, **recovery)
+def anchor_controller(policy: BVMCPolicy, **anchor) -> IntrospectiveController:
+    """anchor with `--recovery.anchor.*` set to `anchor`, firing on a step's uncertainty over 0.5."""
+    cfg = RecoveryConfig(mode="anchor", window=1, initial_interval=0, anchor=AnchorSettings(**anchor))
     return IntrospectiveController(
         policy,
         cfg,
@@ -134,7 +136,7 @@ def test_anchor_without_grasp_pushes_the_believed_object_onto_the_anchored_goal(
     stream = [0.05] * 10 + [1.0] + [0.0] * 300  # fires at step 10, standing still until then
     policy = scripted_policy(stream, move=[0.0, 0.0, 0.0], **WITH_GOAL_HEAD)
     believing(policy, lambda: env.object_position, [list(target)] * 300)
-    controller = anchor_controller(policy, anchor_grasp=False)  # as push's object handling sets it
+    controller = anchor_controller(policy, grasp=False)  # as push's object handling sets it
     changes = recorded_changes(controller)
     controller.reset()
     actions, phases, success = [], [], False
@@ -167,7 +169,7 @@ def test_anchor_holding_carries_to_the_goal_believed_at_the_least_uncertain_step
     goals = [[1.20, 0.80, 0.425]] * 10 + [[1.40, 0.60, 0.425]] * 200
     start = np.array([1.342, 0.749, 0.535])  # about the grip point's start; the object believed 2 cm ahead
     believing(policy, [list(start + [0.02, 0.0, 0.0])] * 200, goals)
-    controller = anchor_controller(policy, anchor_release=release, anchor_goal_steps=goal_steps)
+    controller = anchor_controller(policy, release=release, goal_steps=goal_steps)
     controller.finger_joints = lambda batch: np.array([[0.024, 0.024]])  # the fingers rest on the cube
     changes = recorded_changes(controller)
     grips, actions = run_episode(controller, steps=60)
@@ -191,7 +193,7 @@ def test_anchor_holding_carries_to_the_goal_believed_at_the_least_uncertain_step
     else:  # handed back at the goal, still holding, its memory untouched
         assert at_goal == carrying[-1] + 1 and changes == []
     with pytest.raises(ValueError, match="no effect with --recovery.mode=init"):
-        RecoveryConfig(mode="init", anchor_release=False)
+        RecoveryConfig(mode="init", anchor=AnchorSettings(release=False))
 
 
 @pytest.mark.parametrize("expert_steps", [0, 30])
@@ -217,10 +219,12 @@ def test_anchor_with_exact_beliefs_completes_pick_reach(expert_steps: int) -> No
         mode="anchor",
         window=1,
         initial_interval=0,
-        anchor_steps=60,
-        anchor_look_steps=0,  # the memory's heads are scripted here (exact)
-        anchor_object="memory",
-        anchor_goal="memory",
+        anchor=AnchorSettings(
+            steps=60,
+            look_steps=0,  # the memory's heads are scripted here (exact)
+            object="memory",
+            goal="memory",
+        ),
     ).for_task(True, True, stick.rest_height, max(stick.half_size))
     controller = IntrospectiveController(
         policy,
@@ -267,12 +271,14 @@ def test_a_regrasp_carries_the_object_by_the_offset_it_grasped_at(held_offset: s
         mode="anchor",
         window=1,
         initial_interval=0,
-        anchor_steps=60,
-        anchor_grasp_offset=(-0.07, 0.0, 0.0),
-        anchor_held_offset=held_offset,
-        anchor_look_steps=0,  # the memory's heads are scripted here
-        anchor_object="memory",
-        anchor_goal="memory",
+        anchor=AnchorSettings(
+            steps=60,
+            grasp_offset=(-0.07, 0.0, 0.0),
+            held_offset=held_offset,
+            look_steps=0,  # the memory's heads are scripted here
+            object="memory",
+            goal="memory",
+        ),
     ).for_task(True, True, env_class.object_shape.rest_height, max(env_class.object_shape.half_size))
     controller = IntrospectiveController(
         policy,
@@ -309,7 +315,7 @@ def test_anchor_regrasps_the_object_believed_now_and_carries_it_if_the_fingers_h
     policy = scripted_policy(stream, move=[0.0, 0.0, 0.0], gripper=GRIPPER_OPEN, **WITH_GOAL_HEAD)
     obj = [1.30, 0.70, 0.425]
     believing(policy, [obj] * 300, [[1.20, 0.80, 0.425]] * 300)
-    controller = anchor_controller(policy, anchor_steps=60)
+    controller = anchor_controller(policy, steps=60)
     closed = {"yes": False}
     open_fingers, held_fingers = np.array([[0.05, 0.05]]), np.array([[0.024, 0.024]])
     controller.finger_joints = lambda batch: held_fingers if holds and closed["yes"] else open_fingers
@@ -347,8 +353,8 @@ def test_an_object_not_held_is_grasped_and_pushed_at_the_task_s_rest_height() ->
     grip, believed = np.array([1.34, 0.75, 0.53]), np.array([1.30, 0.70, 0.463])
     cube = task_env_class("pick_place").object_shape
     settings = RecoveryConfig(mode="anchor").for_task(True, False, cube.rest_height)
-    assert settings.anchor_rest_height == pytest.approx(0.425)
-    grasp = regrasp(grip, believed, 40, 0.01, settings.anchor_rest_height, embodiment=FETCH_EMBODIMENT)
+    assert settings.anchor.rest_height == pytest.approx(0.425)
+    grasp = regrasp(grip, believed, 40, 0.01, settings.anchor.rest_height, embodiment=FETCH_EMBODIMENT)
     np.testing.assert_allclose(grasp.target, [1.30, 0.70, 0.425 + GRASP_HEIGHT])
     assert min(w.position[2] for w in grasp.waypoints) == pytest.approx(0.425 + GRASP_HEIGHT)
     believed_height = regrasp(grip, believed, 40, 0.01, embodiment=FETCH_EMBODIMENT).target[2]
@@ -366,10 +372,12 @@ def test_an_object_not_held_is_grasped_and_pushed_at_the_task_s_rest_height() ->
         push=PUSH_TRAITS.push_contact,
     )
     assert min(w.position[2] for w in push.waypoints) == pytest.approx(0.425)  # the legs at the centre
-    given = RecoveryConfig(mode="anchor", anchor_rest_height=float("nan")).for_task(True, False, 0.425)
-    assert np.isnan(given.anchor_rest_height)  # the user's choice (the believed height) is kept
-    with pytest.raises(ValueError, match="anchor_rest_height is a height in metres"):
-        RecoveryConfig(mode="anchor", anchor_rest_height=float("inf"))
+    given = RecoveryConfig(mode="anchor", anchor=AnchorSettings(rest_height=float("nan"))).for_task(
+        True, False, 0.425
+    )
+    assert np.isnan(given.anchor.rest_height)  # the user's choice (the believed height) is kept
+    with pytest.raises(ValueError, match="anchor.rest_height is a height in metres"):
+        RecoveryConfig(mode="anchor", anchor=AnchorSettings(rest_height=float("inf")))
 
 
 @pytest.mark.parametrize("look_steps", [0, 3])
@@ -377,15 +385,15 @@ def test_a_look_from_the_start_pose_replaces_a_false_belief_before_anchor_pushes
     """push's failures: the object head places the cube where the demos always have it (in front of the
     fingers, or on the goal) while the camera shows it elsewhere. Scripted here: the head believes the cube
     on the target until the memory has been reset, then sees it where it is. Without a look anchor acts on
-    the false belief (nothing to push) and the cube stays put; with `anchor_look_steps` the arm first rises
-    and returns to the episode's start pose, resets the memory there, holds still, then pushes the cube it
-    now sees onto the target."""
+    the false belief (nothing to push) and the cube stays put; with `--recovery.anchor.look_steps` the arm
+    first rises and returns to the episode's start pose, resets the memory there, holds still, then pushes
+    the cube it now sees onto the target."""
     env = make_task_env("push", image_size=64)
     observation, _ = env.reset(seed=0)
     target = env.target_position.copy()
     stream = [0.05] * 10 + [1.0] + [0.0] * 300  # fires at step 10, after 10 steps of drifting along +y
     policy = scripted_policy(stream, move=[0.0, 0.3, 0.0], **WITH_GOAL_HEAD)
-    controller = anchor_controller(policy, anchor_grasp=False, anchor_look_steps=look_steps)
+    controller = anchor_controller(policy, grasp=False, look_steps=look_steps)
     changes = recorded_changes(controller)
     believing(policy, lambda: env.object_position if changes else target, [list(target)] * 300)
     controller.reset()
@@ -416,10 +424,10 @@ def test_a_look_from_the_start_pose_replaces_a_false_belief_before_anchor_pushes
     assert event["look_steps"] == look_steps
     np.testing.assert_allclose(event["target"][:2], target[:2], atol=1e-4)
     assert success, "after the look, the push legs did not bring the cube onto the target"
-    with pytest.raises(ValueError, match="anchor_look_steps must be >= 0"):
-        RecoveryConfig(mode="anchor", anchor_look_steps=-1)
+    with pytest.raises(ValueError, match="anchor.look_steps must be >= 0"):
+        RecoveryConfig(mode="anchor", anchor=AnchorSettings(look_steps=-1))
     with pytest.raises(ValueError, match="no effect with --recovery.mode=init"):
-        RecoveryConfig(mode="init", anchor_look_steps=2)
+        RecoveryConfig(mode="init", anchor=AnchorSettings(look_steps=2))
 
 
 def test_anchor_fingers_apart_while_opening_are_not_holding() -> None:
@@ -452,20 +460,21 @@ def test_recovery_reads_nothing_of_the_simulator_state(mode: str) -> None:
 
     def rollout(withhold: bool) -> list[np.ndarray]:
         torch.manual_seed(1)
-        short = {"anchor_steps": 5} if mode.startswith("anchor") else {"recovery_steps": 5}
+        anchor: dict = {"steps": 5}
         if mode == "anchor_look":
-            short["anchor_look_steps"] = 2
+            anchor["look_steps"] = 2
         if mode == "anchor_frame":  # the frame position head's reading of the object, after a look
-            short.update(anchor_look_steps=2, anchor_object="frame")
+            anchor.update(look_steps=2, object="frame")
         if mode == "anchor_held":  # pick_reach's: the frame head's object and goal, carried by the grasp
-            short.update(
-                anchor_look_steps=2,
-                anchor_object="frame",
-                anchor_goal="frame",
-                anchor_release=False,
-                anchor_held_offset="grasped",
-                anchor_carry_memory="reset",
+            anchor.update(
+                look_steps=2,
+                object="frame",
+                goal="frame",
+                release=False,
+                held_offset="grasped",
+                carry_memory="reset",
             )
+        short = {"anchor": AnchorSettings(**anchor)} if mode.startswith("anchor") else {"recovery_steps": 5}
         base_mode = mode.removesuffix("_look").removesuffix("_frame").removesuffix("_held")
         cfg = RecoveryConfig(mode=base_mode, window=1, initial_interval=0, **short)
         controller = IntrospectiveController(
@@ -507,65 +516,67 @@ def test_anchor_takes_its_object_handling_from_the_task_unless_given() -> None:
         ("pick_reach", True, False, LOOK_STEPS, "frame", "frame", "keep", 0.125),  # held 7 cm off centre
     ]:
         settings = RecoveryConfig(mode="anchor").for_task_traits(task_env_class(task).traits())
-        assert (settings.anchor_grasp, settings.anchor_release) == (grasp, release), task
-        assert (settings.anchor_look_steps, settings.anchor_object) == (look, source), task
-        assert (settings.anchor_goal, settings.anchor_carry_memory) == (goal, carry_memory), task
-        assert settings.anchor_max_held_offset == pytest.approx(max_offset), task
-        assert settings.anchor_held_offset == "believed", task
+        assert (settings.anchor.grasp, settings.anchor.release) == (grasp, release), task
+        assert (settings.anchor.look_steps, settings.anchor.object) == (look, source), task
+        assert (settings.anchor.goal, settings.anchor.carry_memory) == (goal, carry_memory), task
+        assert settings.anchor.max_held_offset == pytest.approx(max_offset), task
+        assert settings.anchor.held_offset == "believed", task
     given = RecoveryConfig(
         mode="anchor",
-        anchor_grasp=True,
-        anchor_release=False,
-        anchor_look_steps=0,
-        anchor_object="memory",
-        anchor_goal="frame",
-        anchor_carry_memory="reset",
+        anchor=AnchorSettings(
+            grasp=True,
+            release=False,
+            look_steps=0,
+            object="memory",
+            goal="frame",
+            carry_memory="reset",
+        ),
     ).for_task(False, False)
-    assert (given.anchor_grasp, given.anchor_release) == (True, False)
-    assert (given.anchor_look_steps, given.anchor_object) == (0, "memory")
-    assert (given.anchor_goal, given.anchor_carry_memory) == ("frame", "reset")
+    assert (given.anchor.grasp, given.anchor.release) == (True, False)
+    assert (given.anchor.look_steps, given.anchor.object) == (0, "memory")
+    assert (given.anchor.goal, given.anchor.carry_memory) == ("frame", "reset")
     for name, value, message in [
-        ("anchor_goal", "camera", "anchor_goal must be one of"),
-        ("anchor_held_offset", "exact", "anchor_held_offset must be one of"),
-        ("anchor_carry_memory", "forget", "anchor_carry_memory must be one of"),
-        ("anchor_grasp_offset", (0.3, 0.0, 0.0), "anchor_grasp_offset is the grasp point's offset"),
-        ("anchor_grasp_offset", (0.0, 0.0), "anchor_grasp_offset is the grasp point's offset"),
+        ("goal", "camera", "anchor.goal must be one of"),
+        ("held_offset", "exact", "anchor.held_offset must be one of"),
+        ("carry_memory", "forget", "anchor.carry_memory must be one of"),
+        ("grasp_offset", (0.3, 0.0, 0.0), "anchor.grasp_offset is the grasp point's offset"),
+        ("grasp_offset", (0.0, 0.0), "anchor.grasp_offset is the grasp point's offset"),
     ]:
         with pytest.raises(ValueError, match=message):
-            RecoveryConfig(mode="anchor", **{name: value})
+            AnchorSettings(**{name: value})
     for name, value in [
-        ("anchor_goal", "frame"),
-        ("anchor_held_offset", "grasped"),
-        ("anchor_carry_memory", "reset"),
-        ("anchor_grasp_offset", (-0.07, 0.0, 0.0)),
+        ("goal", "frame"),
+        ("held_offset", "grasped"),
+        ("carry_memory", "reset"),
+        ("grasp_offset", (-0.07, 0.0, 0.0)),
     ]:
-        with pytest.raises(ValueError, match=f"{name} set the anchor mode"):
-            RecoveryConfig(mode="rand", **{name: value})
+        with pytest.raises(ValueError, match=r"anchor\.\* set the anchor mode"):
+            RecoveryConfig(mode="rand", anchor=AnchorSettings(**{name: value}))
     assert (
-        RecoveryConfig(mode="anchor", anchor_max_held_offset=0.2)
+        RecoveryConfig(mode="anchor", anchor=AnchorSettings(max_held_offset=0.2))
         .for_task(True, True, 0.4, 0.1)
-        .anchor_max_held_offset
+        .anchor.max_held_offset
         == 0.2
     )
-    with pytest.raises(ValueError, match="anchor_max_held_offset is a distance"):
-        RecoveryConfig(mode="anchor", anchor_max_held_offset=-0.1)
-    with pytest.raises(ValueError, match="anchor_object must be one of"):
-        RecoveryConfig(mode="anchor", anchor_object="camera")
+    with pytest.raises(ValueError, match="anchor.max_held_offset is a distance"):
+        RecoveryConfig(mode="anchor", anchor=AnchorSettings(max_held_offset=-0.1))
+    with pytest.raises(ValueError, match="anchor.object must be one of"):
+        RecoveryConfig(mode="anchor", anchor=AnchorSettings(object="camera"))
     with pytest.raises(ValueError, match="no effect with --recovery.mode=init"):
-        RecoveryConfig(mode="init", anchor_object="frame")
+        RecoveryConfig(mode="init", anchor=AnchorSettings(object="frame"))
     assert RecoveryConfig(mode="min_unc").for_task(False, True) == RecoveryConfig(mode="min_unc")
 
 
 @pytest.mark.parametrize("source", ["memory", "frame"])
 def test_anchor_reads_the_object_from_the_head_it_is_told(source: str) -> None:
     """The object head on the memory believes the cube in one place, the frame position head in another:
-    anchor's push starts behind the one `anchor_object` names."""
+    anchor's push starts behind the one `--recovery.anchor.object` names."""
     memory_object, frame_object = np.array([1.30, 0.70, 0.425]), np.array([1.20, 0.62, 0.425])
     stream = [0.05] * 10 + [1.0] + [0.0] * 100  # fires at step 10
     policy = scripted_policy(stream, move=[0.0, 0.0, 0.0], frame_position_head=True, **WITH_GOAL_HEAD)
     believing(policy, [list(memory_object)] * 200, [[1.45, 1.00, 0.425]] * 200)
     frame_head_reads(policy, slice(3, 6), frame_object)
-    controller = anchor_controller(policy, anchor_grasp=False, anchor_object=source)
+    controller = anchor_controller(policy, grasp=False, object=source)
     run_episode(controller, steps=12)
     believed = memory_object if source == "memory" else frame_object
     np.testing.assert_allclose(controller.strategy.object_beliefs[0], believed, atol=1e-6)
@@ -583,8 +594,8 @@ def test_anchor_reads_the_object_from_the_head_it_is_told(source: str) -> None:
 def test_anchor_carries_to_the_goal_of_the_head_it_is_told(source: str) -> None:
     """The goal head on the memory believes the goal in one place, the frame position head in another (as
     on pick_reach's failures, where the memory's goal sat a median 2.4 cm off and the frame head's 0.9 cm):
-    a held object is carried to the goal the head `anchor_goal` names believed at its least uncertain
-    steps."""
+    a held object is carried to the goal the head `--recovery.anchor.goal` names believed at its least
+    uncertain steps."""
     memory_goal, frame_goal = np.array([1.20, 0.80, 0.425]), np.array([1.30, 0.90, 0.425])
     stream = [0.05] * 10 + [1.0] + [0.0] * 100  # fires at step 10
     policy = scripted_policy(
@@ -593,7 +604,7 @@ def test_anchor_carries_to_the_goal_of_the_head_it_is_told(source: str) -> None:
     start = np.array([1.342, 0.749, 0.535])
     believing(policy, [list(start)] * 200, [list(memory_goal)] * 200)  # the object in the hand
     frame_head_reads(policy, slice(6, 9), frame_goal)
-    controller = anchor_controller(policy, anchor_release=False, anchor_goal=source)
+    controller = anchor_controller(policy, release=False, goal=source)
     controller.finger_joints = lambda batch: np.array([[0.024, 0.024]])  # the fingers rest on the cube
     grips, _ = run_episode(controller, steps=12)
     event = controller.traces[-1].events[0][0]
@@ -602,8 +613,8 @@ def test_anchor_carries_to_the_goal_of_the_head_it_is_told(source: str) -> None:
     np.testing.assert_allclose(event["target"], goal - (start - grips[10]), atol=1e-4)
 
 
-@pytest.mark.parametrize("name", ["anchor_object", "anchor_goal"])
+@pytest.mark.parametrize("name", ["object", "goal"])
 def test_anchor_on_the_frame_head_refuses_a_policy_without_it(name: str) -> None:
     policy = scripted_policy([0.0], move=[0.0, 0.0, 0.0], frame_position_head=False, **WITH_GOAL_HEAD)
-    with pytest.raises(ValueError, match=f"{name}=frame reads the policy's frame position head"):
+    with pytest.raises(ValueError, match=f"anchor.{name}=frame reads the policy's frame position head"):
         anchor_controller(policy, **{name: "frame"})

@@ -18,6 +18,7 @@ from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
 from lerobot_ivmc.recovery.config import RecoveryConfig
 from lerobot_ivmc.recovery.controller import IntrospectiveController, memory_row
 from lerobot_ivmc.recovery.manoeuvres import BACKTRACK, FOLLOW_MIN_UNC, MOVE_TO_INIT, RANDOM_MOVES
+from lerobot_ivmc.recovery.strategy_settings import MinUncSettings
 
 IDENTITY_STATS = (torch.zeros(6), torch.ones(6))  # the batch carries raw positions
 
@@ -131,12 +132,12 @@ def test_min_unc_backtracks_to_the_least_uncertain_step_and_restores_its_memory(
 
 
 def test_min_unc_with_min_unc_memory_reset_backtracks_then_resets_the_memory() -> None:
-    """`--recovery.min_unc_memory=reset`: the same back-track, then the memory after `reset()` instead of
+    """`--recovery.min_unc.memory=reset`: the same back-track, then the memory after `reset()` instead of
     the saved one (a false belief formed before the back-track point goes)."""
     stream = [0.2] * 4 + [0.01] + [0.2] * 5 + [1.0] + [0.2] * 100
     policy = scripted_policy(stream, move=[0.0, 0.6, 0.0])
     cfg = RecoveryConfig(
-        mode="min_unc", window=1, initial_interval=0, recovery_steps=3, min_unc_memory="reset"
+        mode="min_unc", window=1, initial_interval=0, recovery_steps=3, min_unc=MinUncSettings(memory="reset")
     )
     controller = IntrospectiveController(
         policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS, embodiment=FETCH_EMBODIMENT
@@ -155,10 +156,10 @@ def test_min_unc_with_min_unc_memory_reset_backtracks_then_resets_the_memory() -
     assert change.memory is None  # reset, not restored
     for value, initial in zip(memory_after, policy.initial_memory(1), strict=True):
         assert torch.equal(value, initial)
-    with pytest.raises(ValueError, match="min_unc_memory must be one of"):
-        RecoveryConfig(mode="min_unc", min_unc_memory="forget")
+    with pytest.raises(ValueError, match="min_unc.memory must be one of"):
+        MinUncSettings(memory="forget")
     with pytest.raises(ValueError, match="no effect with --recovery.mode=init"):
-        RecoveryConfig(mode="init", min_unc_memory="reset")
+        RecoveryConfig(mode="init", min_unc=MinUncSettings(memory="reset"))
 
 
 def test_min_unc_executes_the_candidate_with_the_lowest_foreseen_uncertainty() -> None:
@@ -181,11 +182,11 @@ def test_min_unc_executes_the_candidate_with_the_lowest_foreseen_uncertainty() -
 
 
 def test_min_unc_memory_keep_backtracks_without_touching_the_memory() -> None:
-    """`--recovery.min_unc_memory=keep` (the back-track-only ablation): no memory change at all."""
+    """`--recovery.min_unc.memory=keep` (the back-track-only ablation): no memory change at all."""
     stream = [0.2] * 4 + [0.01] + [0.2] * 5 + [1.0] + [0.2] * 100
     policy = scripted_policy(stream, move=[0.0, 0.6, 0.0])
     cfg = RecoveryConfig(
-        mode="min_unc", window=1, initial_interval=0, recovery_steps=3, min_unc_memory="keep"
+        mode="min_unc", window=1, initial_interval=0, recovery_steps=3, min_unc=MinUncSettings(memory="keep")
     )
     controller = IntrospectiveController(
         policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS, embodiment=FETCH_EMBODIMENT
@@ -207,7 +208,7 @@ def test_min_unc_choice_mean_and_random_replace_the_foresight_choice() -> None:
     env.close()
 
     def choose(choice: str, seed: int = 0) -> np.ndarray:
-        cfg = RecoveryConfig(mode="min_unc", min_unc_choice=choice)
+        cfg = RecoveryConfig(mode="min_unc", min_unc=MinUncSettings(choice=choice))
         controller = IntrospectiveController(
             policy,
             cfg,
@@ -226,10 +227,10 @@ def test_min_unc_choice_mean_and_random_replace_the_foresight_choice() -> None:
     assert all(any((d == sample).all() for sample in samples) for d in drawn)
     np.testing.assert_array_equal(drawn[0], choose("random", 0))  # seeded
     assert len({tuple(d) for d in drawn}) > 1 or len({tuple(s) for s in samples}) == 1
-    with pytest.raises(ValueError, match="min_unc_choice must be one of"):
-        RecoveryConfig(mode="min_unc", min_unc_choice="best")
+    with pytest.raises(ValueError, match="min_unc.choice must be one of"):
+        MinUncSettings(choice="best")
     with pytest.raises(ValueError, match="no effect with --recovery.mode=rand"):
-        RecoveryConfig(mode="rand", min_unc_choice="mean")
+        RecoveryConfig(mode="rand", min_unc=MinUncSettings(choice="mean"))
     with pytest.raises(ValueError, match=r"random_streams must be one of \('batch', 'episode'\)"):
         RecoveryConfig(random_streams="scene")
 

@@ -12,10 +12,11 @@ from test_controller import IDENTITY_STATS, run_episode, scripted_policy
 from test_embodiment import FAKE
 
 from lerobot_ivmc.envs.fetch_env import EMBODIMENT as FETCH_EMBODIMENT
-from lerobot_ivmc.recovery.config import ReachSettings, RecoveryConfig
+from lerobot_ivmc.recovery.config import RecoveryConfig
 from lerobot_ivmc.recovery.controller import BatchTrace, IntrospectiveController
 from lerobot_ivmc.recovery.manoeuvres import REACH, Stop, WaypointPath
 from lerobot_ivmc.recovery.strategies import make_strategy
+from lerobot_ivmc.recovery.strategy_settings import ReachSettings
 
 TABLE = 0.02  # the synthetic world's table: the grip point cannot go lower
 

@@ -112,12 +112,12 @@ def test_each_mode_runs_end_to_end(variant: str, tiny_recovery_checkpoint: Path,
     out = tmp_path / variant
     mode = variant.removesuffix("_frame")
     flags = [f"--recovery.mode={mode}", "--recovery.max_videos=1"]
-    flags.append("--recovery.anchor_steps=5" if mode == "anchor" else "--recovery.recovery_steps=5")
+    flags.append("--recovery.anchor.steps=5" if mode == "anchor" else "--recovery.recovery_steps=5")
     if variant == "anchor_frame":
         flags += [
-            "--recovery.anchor_look_steps=2",
-            "--recovery.anchor_object=frame",
-            "--recovery.anchor_goal=frame",
+            "--recovery.anchor.look_steps=2",
+            "--recovery.anchor.object=frame",
+            "--recovery.anchor.goal=frame",
         ]
     if mode != "none":  # a zero threshold and short interval make sure recoveries happen in 30 steps
         flags += ["--recovery.threshold=0.0", "--recovery.initial_interval=2"]
@@ -141,8 +141,9 @@ def test_each_mode_runs_end_to_end(variant: str, tiny_recovery_checkpoint: Path,
         if mode == "anchor":
             frame = variant == "anchor_frame"
             expected = ("frame", "frame") if frame else ("memory", "memory")
-            assert (settings["anchor_object"], settings["anchor_goal"]) == expected
-            assert settings["anchor_release"] is True and settings["anchor_look_steps"] == (2 if frame else 0)
+            anchor = settings["anchor"]
+            assert (anchor["object"], anchor["goal"]) == expected
+            assert anchor["release"] is True and anchor["look_steps"] == (2 if frame else 0)
             assert any("look_steps" in event for e in episodes for event in e["recoveries"]) is frame
         videos = list((out / "recovery_videos").glob("*.mp4"))
         assert len(videos) == 1

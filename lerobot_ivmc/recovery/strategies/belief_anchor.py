@@ -51,10 +51,10 @@ class AnchorRecovery(RecoveryStrategy):
                 "--recovery.mode=anchor reads the goal the policy believes: it needs a policy trained with "
                 "--policy.goal_head=true (the lite preset's); use another --recovery.mode for this one."
             )
-        on_frame = [n for n in ("anchor_object", "anchor_goal") if getattr(self.settings, n) == "frame"]
+        on_frame = [n for n in ("object", "goal") if getattr(self.settings.anchor, n) == "frame"]
         if on_frame and not getattr(policy.config, "frame_position_head", False):
-            settings = " and ".join(f"--recovery.{name}=frame" for name in on_frame)
-            fix = " ".join(f"--recovery.{name}=memory" for name in on_frame)
+            settings = " and ".join(f"--recovery.anchor.{name}=frame" for name in on_frame)
+            fix = " ".join(f"--recovery.anchor.{name}=memory" for name in on_frame)
             raise ValueError(
                 f"{settings} {'read' if len(on_frame) > 1 else 'reads'} the policy's frame position head: it "
                 "needs a policy trained with "
@@ -66,7 +66,7 @@ class AnchorRecovery(RecoveryStrategy):
             )
 
     def start_batch(self, batch_size: int) -> None:
-        self.anchors = [BeliefAnchor(self.settings.anchor_goal_steps) for _ in range(batch_size)]
+        self.anchors = [BeliefAnchor(self.settings.anchor.goal_steps) for _ in range(batch_size)]
         self.object_beliefs = np.zeros((batch_size, 3))  # the last step's believed object positions
 
     def observe(
@@ -81,11 +81,11 @@ class AnchorRecovery(RecoveryStrategy):
         anchors."""
         outputs = ctx.policy.net.decode(prediction.embedding, stochastic=False, with_goal=True)
         believed = outputs[3]
-        if self.settings.anchor_object == "frame":  # this frame's reading, without the memory
+        if self.settings.anchor.object == "frame":  # this frame's reading, without the memory
             believed = ctx.policy.frame_positions[:, OBJECT_POSITION]
         self.object_beliefs = ctx.object_positions(believed)
         goals = outputs[4]
-        if self.settings.anchor_goal == "frame":  # each frame's reading, averaged by the anchor
+        if self.settings.anchor.goal == "frame":  # each frame's reading, averaged by the anchor
             goals = ctx.policy.frame_positions[:, GOAL_POSITION]
         goals = ctx.object_positions(goals)
         for row in np.flatnonzero(normal):
@@ -100,18 +100,18 @@ class AnchorRecovery(RecoveryStrategy):
     def begin(
         self, ctx: IntrospectiveController, row: int, grip: np.ndarray, fingers: np.ndarray
     ) -> tuple[Manoeuvre, dict]:
-        s = self.settings
-        if s.anchor_look_steps > 0 and not self.holding(ctx, row, fingers):
+        s, a = self.settings, self.settings.anchor
+        if a.look_steps > 0 and not self.holding(ctx, row, fingers):
             look = LookFromStart(
                 grip,
                 ctx.initial_grip[row],
                 int(ctx.last_gripper[row]),
-                s.anchor_look_steps,
-                s.anchor_steps,
+                a.look_steps,
+                a.steps,
                 s.move_tolerance,
                 ctx.embodiment,
             )
-            return look, {"look_steps": s.anchor_look_steps}
+            return look, {"look_steps": a.look_steps}
         return self.act_on_beliefs(ctx, row, grip, fingers)
 
     def act_on_beliefs(
@@ -119,18 +119,18 @@ class AnchorRecovery(RecoveryStrategy):
     ) -> tuple[Manoeuvre, dict]:
         """Anchor's manoeuvre for rollout `row` from what it feels and believes now, and what the recovery
         event reports of it."""
-        s = self.settings
+        s, a = self.settings, self.settings.anchor
         holding = self.holding(ctx, row, fingers)
         if holding:
             manoeuvre = self.carry(ctx, row, grip)
-        elif s.anchor_grasp:
+        elif a.grasp:
             manoeuvre = regrasp(
                 grip,
                 self.object_beliefs[row],
-                s.anchor_steps,
+                a.steps,
                 s.move_tolerance,
-                s.anchor_rest_height,
-                s.anchor_grasp_offset,
+                a.rest_height,
+                a.grasp_offset,
                 embodiment=ctx.embodiment,
             )
         else:
@@ -164,40 +164,40 @@ class AnchorRecovery(RecoveryStrategy):
     ) -> Manoeuvre:
         """Carry the held object to the anchored goal; `grasped_offset`: where anchor's own re-grasp put the
         object's centre from the grip point, used instead of the believed offset where
-        `anchor_held_offset` is "grasped"."""
-        s = self.settings
+        `--recovery.anchor.held_offset` is "grasped"."""
+        s, a = self.settings, self.settings.anchor
         held_offset = self.object_beliefs[row] - grip
-        if grasped_offset is not None and s.anchor_held_offset == "grasped":
+        if grasped_offset is not None and a.held_offset == "grasped":
             held_offset = grasped_offset
         return carry_to_goal(
             grip,
             self.anchors[row].goal,
             held_offset,
-            s.anchor_steps,
+            a.steps,
             s.move_tolerance,
-            s.anchor_release,
-            s.anchor_max_held_offset,
-            s.anchor_carry_memory == "reset",
+            a.release,
+            a.max_held_offset,
+            a.carry_memory == "reset",
             embodiment=ctx.embodiment,
         )
 
     def push(self, ctx: IntrospectiveController, row: int, grip: np.ndarray, legs: int) -> Manoeuvre:
         """Push the object toward the anchored goal, as the task's push geometry says."""
-        s = self.settings
+        s, a = self.settings, self.settings.anchor
         traits = ctx.task_traits
         if traits is None or traits.push_contact is None:
             raise ValueError(
-                "--recovery.anchor_grasp=false pushes the object: it needs a task whose env defines how "
-                "the fingers push it (push_contact); pass --recovery.anchor_grasp=true or another mode."
+                "--recovery.anchor.grasp=false pushes the object: it needs a task whose env defines how "
+                "the fingers push it (push_contact); pass --recovery.anchor.grasp=true or another mode."
             )
         return push_to_goal(
             grip,
             self.object_beliefs[row],
             self.anchors[row].goal,
-            s.anchor_steps,
+            a.steps,
             s.move_tolerance,
             legs,
-            s.anchor_rest_height,
+            a.rest_height,
             embodiment=ctx.embodiment,
             push=traits.push_contact,
         )

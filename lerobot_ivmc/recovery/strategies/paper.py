@@ -71,14 +71,15 @@ class MinUncertaintyRecovery(RecoveryStrategy):
             s.backtrack_horizon,
             s.backtrack_tolerance,
             ctx.embodiment,
-            memory=s.min_unc_memory,
+            memory=s.min_unc.memory,
         )
         return manoeuvre, {"backtrack_to_step": manoeuvre.target.step}
 
     def policy_action(self, ctx: IntrospectiveController, prediction: MCPrediction, row: int) -> np.ndarray:
         """The candidate action of `row` (a sample, widened by `candidate_noise`) with the lowest foreseen
-        uncertainty of the next step (or, as `min_unc_choice` says, the mean or a random candidate)."""
-        choice = self.settings.min_unc_choice
+        uncertainty of the next step (or, as `--recovery.min_unc.choice` says, the mean or a random
+        candidate)."""
+        choice = self.settings.min_unc.choice
         if choice == "mean":
             return prediction.mean_action[row].cpu().numpy()
         rng, generator = ctx.draws(row)

@@ -22,6 +22,6 @@ class RetryRecovery(RecoveryStrategy):
     def begin(self, ctx: IntrospectiveController, row: int, grip, fingers) -> tuple[Manoeuvre, dict]:
         s = self.settings
         manoeuvre = ReturnToStart(
-            grip, ctx.initial_grip[row], s.retry_steps, s.move_tolerance, ctx.embodiment
+            grip, ctx.initial_grip[row], s.retry.steps, s.move_tolerance, ctx.embodiment
         )
         return manoeuvre, {"target": manoeuvre.target.round(4).tolist()}
