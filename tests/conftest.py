@@ -18,3 +18,8 @@ if _workers > 1:
 def pytest_collection_modifyitems(items: list) -> None:
     """Start the tests marked `long` first: a worker that meets one last leaves the others idle meanwhile."""
     items.sort(key=lambda item: item.get_closest_marker("long") is None)
+
+
+# The tiny bvmc checkpoints, shared by the recovery and evaluation tests (imported after the thread
+# settings above, as they import torch).
+from helpers.checkpoints import tiny_bvmc, tiny_foresight, tiny_recovery_checkpoint  # noqa: E402, F401

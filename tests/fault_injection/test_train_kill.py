@@ -10,13 +10,10 @@ import time
 from pathlib import Path
 
 import pytest
+from helpers.policies import TINY_REPO_ID, build_expert_dataset
 
 # Subprocesses, trainings or whole studies: left out of `bash scripts/test.sh -m "not slow"`.
 pytestmark = pytest.mark.slow
-
-sys.path.insert(0, str(Path(__file__).parents[1] / "policies"))  # policy_helpers: the tiny dataset
-
-from policy_helpers import TINY_REPO_ID, build_expert_dataset  # noqa: E402
 
 STEPS = 100_000  # never reached: the run is killed after its first checkpoint, however fast the machine
 MORE_STEPS = 10  # the resumed run's schedule ends this many steps after the checkpoint it resumes from

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from policy_helpers import build_expert_dataset
+from helpers.policies import build_expert_dataset
 
 
 @pytest.fixture(scope="session")

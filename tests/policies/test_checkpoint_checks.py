@@ -4,7 +4,7 @@ from pathlib import Path
 
 import pytest
 import torch
-from policy_helpers import make_config
+from helpers.policies import make_config
 from safetensors.torch import load_file, save_file
 from torch import nn
 

@@ -8,7 +8,7 @@ from types import SimpleNamespace
 
 import pytest
 import torch
-from policy_helpers import make_batch, make_config
+from helpers.policies import make_batch, make_config
 
 from lerobot_ivmc.policies import BVMCPolicy
 from lerobot_ivmc.policies.bvmc.concrete_dropout import ConcreteDropout, ConcreteDropoutHead

@@ -11,10 +11,10 @@ from pprint import pformat
 
 import pytest
 import torch
+from helpers.policies import make_config, observation_batch
 from lerobot.configs import parser
 from lerobot.configs.eval import EvalPipelineConfig
 from lerobot.configs.policies import PreTrainedConfig
-from policy_helpers import make_config, observation_batch
 
 from lerobot_ivmc.policies import BVMCConfig, BVMCPolicy, VMCConfig, VMCPolicy
 from lerobot_ivmc.policies.legacy_configs import fill_legacy_defaults

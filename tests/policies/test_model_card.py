@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
+from helpers.policies import THRESHOLD_RECORD, make_config
 from huggingface_hub import ModelCard
-from policy_helpers import make_config
-from test_threshold_on_hub import RECORD
 
 from lerobot_ivmc.policies import BVMCConfig, VMCConfig
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
@@ -18,7 +17,7 @@ def test_the_model_card_names_the_paper_the_task_and_the_threshold(monkeypatch) 
     assert "library_name: lerobot" in card  # LeRobot's own template, then ours
     assert "Introspective Visuomotor Control" in card and "arXiv:2103.11881" in card
     assert "pick_place demos" in card and "No recovery threshold yet" in card
-    policy.threshold_record = RECORD
+    policy.threshold_record = THRESHOLD_RECORD
     card = str(policy.generate_model_card("local/ivmc_pick_place", "bvmc", None, None))
     assert "Recovery threshold C = 2.5 (argmax, window 20) picked on 1 val episodes of pick_place" in card
     vmc_card = str(VMCPolicy(make_config(VMCConfig)).generate_model_card("local/x", "vmc", None, None))

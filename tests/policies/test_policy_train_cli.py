@@ -12,10 +12,10 @@ from pathlib import Path
 
 import pytest
 import torch
+from helpers.policies import TINY_REPO_ID
 from lerobot.envs.factory import make_env, make_env_pre_post_processors
 from lerobot.policies.factory import get_policy_class, make_pre_post_processors
 from lerobot.scripts.lerobot_eval import rollout
-from policy_helpers import TINY_REPO_ID
 
 from lerobot_ivmc.datasets.staging import COLLECTION_INFO_PATH
 from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv

@@ -7,11 +7,11 @@ from pathlib import Path
 
 import pytest
 import torch
+from helpers.policies import IMAGE_KEY, STATE_DIM, TINY_REPO_ID, make_config
 from lerobot.datasets.factory import resolve_delta_timestamps
 from lerobot.datasets.lerobot_dataset import LeRobotDataset, LeRobotDatasetMetadata
 from lerobot.policies.factory import get_policy_class, make_policy_config
 from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
-from policy_helpers import IMAGE_KEY, STATE_DIM, TINY_REPO_ID, make_config
 
 from lerobot_ivmc.datasets.frame_cache import FrameCache
 from lerobot_ivmc.policies import BVMCPolicy, VMCConfig, VMCPolicy

@@ -7,28 +7,17 @@ from pathlib import Path
 
 import huggingface_hub.constants
 import pytest
-from policy_helpers import make_batch, make_config
+from helpers.policies import THRESHOLD_RECORD, make_batch, make_config
 
 from lerobot_ivmc.policies import BVMCConfig
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
 from lerobot_ivmc.recovery.threshold import THRESHOLD_FILE, ThresholdRecord
 
-RECORD = ThresholdRecord(
-    threshold=2.5,
-    method="argmax",
-    window=20,
-    task="pick_place",
-    split="val",
-    num_samples=8,
-    uncertainty_lambda=0.5,
-    episodes=[{"seed": 0, "u": 3.0, "success": False}],
-)
-
 
 def saved_checkpoint(folder: Path) -> Path:
     policy = BVMCPolicy(make_config(BVMCConfig, num_samples=8))
     policy.save_pretrained(folder)
-    RECORD.save(folder)
+    THRESHOLD_RECORD.save(folder)
     return folder
 
 
@@ -47,18 +36,18 @@ def as_hub_cache(folder: Path, cache: Path, repo_id: str) -> None:
 def test_threshold_is_saved_loaded_and_pushed_with_the_checkpoint(tmp_path: Path, monkeypatch) -> None:
     local = saved_checkpoint(tmp_path / "local")
     policy = BVMCPolicy.from_pretrained(local)
-    assert policy.threshold_record == RECORD
+    assert policy.threshold_record == THRESHOLD_RECORD
     resaved = tmp_path / "resaved"  # what push_to_hub uploads: a save_pretrained folder
     policy.save_pretrained(resaved)
-    assert ThresholdRecord.load(resaved) == RECORD
+    assert ThresholdRecord.load(resaved) == THRESHOLD_RECORD
 
     cache = tmp_path / "hub"
     as_hub_cache(resaved, cache, "someone/bvmc-pick-place")
     monkeypatch.setattr(huggingface_hub.constants, "HF_HUB_OFFLINE", True)
     monkeypatch.setattr(huggingface_hub.constants, "HF_HUB_CACHE", str(cache))
-    assert ThresholdRecord.load("someone/bvmc-pick-place") == RECORD
+    assert ThresholdRecord.load("someone/bvmc-pick-place") == THRESHOLD_RECORD
     from_hub = BVMCPolicy.from_pretrained("someone/bvmc-pick-place")
-    assert from_hub.threshold_record == RECORD
+    assert from_hub.threshold_record == THRESHOLD_RECORD
     assert ThresholdRecord.load("someone/not-cached") is None
 
 

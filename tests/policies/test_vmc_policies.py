@@ -8,10 +8,10 @@ from pathlib import Path
 
 import pytest
 import torch
+from helpers.policies import IMAGE_KEY, make_batch, make_config, observation_batch
 from lerobot.configs.types import NormalizationMode
 from lerobot.policies.factory import get_policy_class, make_pre_post_processors
 from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
-from policy_helpers import IMAGE_KEY, make_batch, make_config, observation_batch
 
 from lerobot_ivmc.policies import BVMCConfig, BVMCPolicy, VMCConfig, VMCPolicy
 from lerobot_ivmc.policies.vmc.network import random_shift

@@ -9,9 +9,9 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 import torch
+from helpers.policies import make_config
+from helpers.scripted import IDENTITY_STATS, recorded_changes, run_episode, scripted_policy, to_batch
 from lerobot.utils.constants import OBS_ENV_STATE
-from policy_helpers import make_config
-from test_controller import IDENTITY_STATS, recorded_changes, run_episode, scripted_policy, to_batch
 from torch import Tensor
 
 from lerobot_ivmc.envs import make_task_env, task_env_class

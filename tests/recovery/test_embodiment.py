@@ -3,15 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
+from helpers.scripted import FAKE
 
-from lerobot_ivmc.envs.embodiment import HOLD, Embodiment
+from lerobot_ivmc.envs.embodiment import HOLD
 from lerobot_ivmc.envs.fetch_env import EMBODIMENT as FETCH
 from lerobot_ivmc.envs.metaworld.embodiment import SAWYER
 from lerobot_ivmc.recovery.manoeuvres import MoveToInit, RandomMoves
-
-# A robot unlike both: 2 cm per action unit, the gripper opened by 0.5 and closed by -0.5, no no-op, one
-# finger reading 0.2-0.8 on something.
-FAKE = Embodiment("fake", 0.02, 0.5, -0.5, None, (3, 4, 5), (0,), held_gap=(0.2, 0.8))
 
 
 def test_a_move_is_scaled_by_the_robots_metres_per_action_unit() -> None:

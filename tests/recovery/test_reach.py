@@ -8,8 +8,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 import torch
-from test_controller import IDENTITY_STATS, run_episode, scripted_policy
-from test_embodiment import FAKE
+from helpers.scripted import FAKE, IDENTITY_STATS, run_episode, scripted_policy
 
 from lerobot_ivmc.envs.fetch_env import EMBODIMENT as FETCH_EMBODIMENT
 from lerobot_ivmc.recovery.config import RecoveryConfig

@@ -14,7 +14,7 @@ import av
 import numpy as np
 import pytest
 import torch
-from recovery_helpers import ENV_FLAGS, EPISODE_LENGTH, run_main
+from helpers.clis import ENV_FLAGS, EPISODE_LENGTH, run_main
 
 from lerobot_ivmc.evaluation.detection_report import DetectionConfig, detect
 from lerobot_ivmc.evaluation.traces import load_traces

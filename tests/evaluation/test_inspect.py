@@ -9,8 +9,8 @@ from unittest import mock
 
 import numpy as np
 import pytest
-from policy_helpers import make_config
-from recovery_helpers import ENV_FLAGS, EPISODE_LENGTH
+from helpers.clis import ENV_FLAGS, EPISODE_LENGTH
+from helpers.policies import make_config
 
 from lerobot_ivmc.envs import make_task_env
 from lerobot_ivmc.policies import BVMCConfig, VMCConfig

@@ -10,6 +10,7 @@ from lerobot.configs.types import FeatureType, PolicyFeature
 from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
 
 from lerobot_ivmc.policies import BVMCConfig, VMCConfig
+from lerobot_ivmc.recovery.threshold import ThresholdRecord
 
 IMAGE_KEY = "observation.images.front"
 IMAGE_SIZE = 64
@@ -118,3 +119,16 @@ def build_expert_dataset(
     dataset.finalize()
     env.close()
     return root
+
+
+# A threshold record as `lerobot-ivmc-threshold` writes it.
+THRESHOLD_RECORD = ThresholdRecord(
+    threshold=2.5,
+    method="argmax",
+    window=20,
+    task="pick_place",
+    split="val",
+    num_samples=8,
+    uncertainty_lambda=0.5,
+    episodes=[{"seed": 0, "u": 3.0, "success": False}],
+)

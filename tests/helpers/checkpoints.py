@@ -1,16 +1,14 @@
-"""Fixtures for the recovery tests: a tiny bvmc trained by the real CLIs, with foresight and threshold."""
+"""Fixtures: a tiny bvmc trained by the real CLIs, with foresight and threshold (registered in
+`tests/conftest.py` for every test folder)."""
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).parents[1] / "policies"))  # policy_helpers: configs, tiny dataset
-
-from policy_helpers import TINY_REPO_ID, build_expert_dataset  # noqa: E402
-from recovery_helpers import ENV_FLAGS, run_cli, run_main  # noqa: E402
+from helpers.clis import ENV_FLAGS, run_cli, run_main
+from helpers.policies import TINY_REPO_ID, build_expert_dataset
 
 
 @pytest.fixture(scope="session")

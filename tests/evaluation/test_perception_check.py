@@ -17,8 +17,8 @@ from unittest import mock
 import numpy as np
 import pytest
 import torch
-from policy_helpers import make_config
-from recovery_helpers import ENV_FLAGS, console_script
+from helpers.clis import ENV_FLAGS, console_script
+from helpers.policies import make_config
 from safetensors.torch import load_file
 
 from lerobot_ivmc.envs import make_task_env

@@ -1,7 +1,4 @@
-"""Helpers for the recovery tests: the short env of the end-to-end runs and running the plugin's CLIs.
-
-A module of its own (not `conftest`) so test files import it by a name no other test folder uses.
-"""
+"""The short env of the end-to-end runs and running the plugin's CLIs."""
 
 from __future__ import annotations
 
