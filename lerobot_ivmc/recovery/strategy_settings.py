@@ -202,6 +202,10 @@ class AnchorSettings:
             carry_memory=given(self.carry_memory, "reset" if release else "keep"),
         )
 
+    def unresolved(self) -> list[str]:
+        """The settings left to the task (None) that `for_task` has not filled."""
+        return [f.name for f in fields(self) if getattr(self, f.name) is None]
+
     def as_flat_dict(self) -> dict:
         """The settings as `anchor_<name>` keys, as the recorded studies' anchor rows hold them."""
         return {f"anchor_{f.name}": getattr(self, f.name) for f in fields(self)}

@@ -113,6 +113,7 @@ def frame_head_reads(policy: BVMCPolicy, part: slice, position: np.ndarray) -> N
 def anchor_controller(policy: BVMCPolicy, **anchor) -> IntrospectiveController:
     """anchor with `--recovery.anchor.*` set to `anchor`, firing on a step's uncertainty over 0.5."""
     cfg = RecoveryConfig(mode="anchor", window=1, initial_interval=0, anchor=AnchorSettings(**anchor))
+    cfg = cfg.for_task(object_picked=True, object_held_at_end=False)  # pick_place's handling, believed height
     return IntrospectiveController(
         policy,
         cfg,
@@ -476,7 +477,7 @@ def test_recovery_reads_nothing_of_the_simulator_state(mode: str) -> None:
             )
         short = {"anchor": AnchorSettings(**anchor)} if mode.startswith("anchor") else {"recovery_steps": 5}
         base_mode = mode.removesuffix("_look").removesuffix("_frame").removesuffix("_held")
-        cfg = RecoveryConfig(mode=base_mode, window=1, initial_interval=0, **short)
+        cfg = RecoveryConfig(mode=base_mode, window=1, initial_interval=0, **short).for_task(True, False)
         controller = IntrospectiveController(
             policy,
             cfg,
@@ -618,3 +619,20 @@ def test_anchor_on_the_frame_head_refuses_a_policy_without_it(name: str) -> None
     policy = scripted_policy([0.0], move=[0.0, 0.0, 0.0], frame_position_head=False, **WITH_GOAL_HEAD)
     with pytest.raises(ValueError, match=f"anchor.{name}=frame reads the policy's frame position head"):
         anchor_controller(policy, **{name: "frame"})
+
+
+def test_anchor_refuses_task_settings_no_task_resolved() -> None:
+    """anchor's object handling comes from the task: settings left to it and never resolved are refused in
+    one line, not filled with another task's."""
+    policy = scripted_policy([0.0], move=[0.0, 0.0, 0.0], **WITH_GOAL_HEAD)
+    unresolved = RecoveryConfig(mode="anchor", anchor=AnchorSettings(release=True, grasp=True))
+    with pytest.raises(ValueError, match=r"anchor takes --recovery\.anchor\.rest_height, .* from the task"):
+        IntrospectiveController(
+            policy,
+            unresolved,
+            0.5,
+            1,
+            IDENTITY_STATS,
+            state_stats=STATE_IDENTITY,
+            embodiment=FETCH_EMBODIMENT,
+        )

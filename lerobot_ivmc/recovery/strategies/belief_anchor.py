@@ -39,9 +39,13 @@ class AnchorRecovery(RecoveryStrategy):
     reads_fingers = True
 
     def __init__(self, settings: RecoveryConfig):
-        # Task settings left unset (`RecoveryConfig.for_task` fills them from the task): those of a task
-        # that picks its object up and lets it go at the goal, as pick_place, at the object's believed height.
-        super().__init__(settings.for_task(object_picked=True, object_held_at_end=False))
+        if unresolved := settings.anchor.unresolved():
+            flags = ", ".join(f"--recovery.anchor.{name}" for name in unresolved)
+            raise ValueError(
+                f"anchor takes {flags} from the task: resolve the settings for it "
+                "(RecoveryConfig.for_task_traits, as lerobot-ivmc-eval does on a Fetch task) or set them."
+            )
+        super().__init__(settings)
         self.anchors: list[BeliefAnchor] = []
         self.object_beliefs = np.zeros((0, 3))
 
