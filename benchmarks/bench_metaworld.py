@@ -4,6 +4,7 @@ demos' noise; and `lerobot-ivmc-collect`'s demos per minute. Every ratio is meas
 
 python benchmarks/bench_metaworld.py                      # 10 scripted episodes per task, 20 demos
 python benchmarks/bench_metaworld.py --episodes 50 --demos 50
+python benchmarks/bench_metaworld.py --scripted_only --episodes 50 --noise 0 --demo_steps 150 200
 """
 
 import argparse
@@ -49,18 +50,22 @@ def step_rates(task: str, n_steps: int) -> dict[str, float]:
     return rates
 
 
-def scripted_success(task: str, episodes: int, steps: int = 150) -> tuple[int, list[int]]:
-    """Successes at the demo's last step, and the steps to first success, of the noisy scripted policy."""
+def scripted_success(
+    task: str, episodes: int, noise_std: float = NOISE, demo_steps: tuple[int, ...] = (150,)
+) -> tuple[dict[int, int], list[int]]:
+    """The noisy scripted policy's successes at each of `demo_steps` (a demo of that length is kept only if
+    done at its last step) and its steps to first success. Physics only: the policy reads the 39-D state."""
     env = SeededMetaworldEnv(task, split="train", terminate_on_success=False)
-    wins, first = 0, []
+    wins, first = dict.fromkeys(demo_steps, 0), []
     for seed in range(episodes):
         observation, _ = env.reset(seed=seed)
-        noise, reached = ActionNoise(NOISE, seed), None
-        for t in range(steps):
-            action = np.clip(env.expert_policy.get_action(observation["environment_state"]), -1, 1)
-            observation, _, _, _, info = env.step(noise(action))
-            reached = t + 1 if reached is None and info["is_success"] else reached
-        wins += env.success_now
+        state, noise, reached = observation["environment_state"], ActionNoise(noise_std, seed), None
+        for t in range(1, max(demo_steps) + 1):
+            action = np.clip(env.expert_policy.get_action(state), -1, 1)
+            state, _, _, _, info = env.raw_env.step(noise(action))
+            reached = t if reached is None and info["success"] else reached
+            if t in wins:
+                wins[t] += int(info["success"])
         first += [reached] if reached is not None else []
     env.close()
     return wins, first
@@ -71,11 +76,33 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=10, help="scripted episodes per task")
     parser.add_argument("--demos", type=int, default=20, help="demos for the collection rate")
     parser.add_argument("--steps", type=int, default=400, help="env steps per rate (at most 500)")
+    parser.add_argument("--noise", type=float, default=NOISE, help="the scripted policy's xyz noise std")
+    parser.add_argument("--demo_steps", type=int, nargs="+", default=[150], help="demo lengths to score")
+    parser.add_argument("--tasks", nargs="+", default=list(TASKS), help="tasks of the scripted runs")
+    parser.add_argument("--scripted_only", action="store_true", help="only the scripted policies' success")
     args = parser.parse_args()
-    if not 5 <= args.steps <= 500:
-        parser.error("--steps must be in [5, 500]: MetaWorld's episodes end at 500 steps.")
+    if not 5 <= args.steps <= 500 or not all(1 <= n <= 500 for n in args.demo_steps):
+        parser.error("--steps and --demo_steps must be in [5, 500]: MetaWorld's episodes end at 500 steps.")
 
-    rates = step_rates("pick-place-v3", args.steps)
+    if not args.scripted_only:
+        env_rates(args.steps)
+    lengths = "/".join(map(str, args.demo_steps))
+    print(
+        f"scripted policies, N(0, {args.noise}) xyz noise, {lengths}-step demos, {args.episodes} scenes each:"
+    )
+    for task in args.tasks:
+        wins, first = scripted_success(task, args.episodes, args.noise, tuple(args.demo_steps))
+        median = int(np.median(first)) if first else None
+        done = ", ".join(f"{count}/{args.episodes} done at step {n}" for n, count in wins.items())
+        print(f"  {task:<20}: {done}; median first success at step {median}")
+    if not args.scripted_only:
+        collection_rates(args.demos)
+
+
+def env_rates(n_steps: int) -> None:
+    """Print the env step rates of pick-place-v3 and their ratios."""
+
+    rates = step_rates("pick-place-v3", n_steps)
     print("pick-place-v3, one env, one process (steps/s):")
     for name, value in rates.items():
         print(f"  {name:<34}: {value:8.1f}")
@@ -84,17 +111,14 @@ def main() -> None:
     print(f"  meta_world / LeRobot's MetaworldEnv: {ours / lerobot:5.1f}x")
     print(f"  meta_world / physics only:           {ours / rates['physics only']:5.2f}x")
 
-    print(f"scripted policies, N(0, {NOISE}) xyz noise, 150-step demos, {args.episodes} train scenes each:")
-    for task in TASKS:
-        wins, first = scripted_success(task, args.episodes)
-        median = int(np.median(first)) if first else None
-        print(f"  {task:<20}: {wins}/{args.episodes} done at step 150, median first success at step {median}")
 
+def collection_rates(demos: int) -> None:
+    """Print `lerobot-ivmc-collect`'s pick-place-v3 demos per minute in one process and with two workers."""
     with tempfile.TemporaryDirectory() as tmp:
         for workers in (0, 2):
             cfg = CollectConfig(
                 task="pick-place-v3",
-                num_episodes=args.demos,
+                num_episodes=demos,
                 root=Path(tmp) / f"demos_{workers}",
                 num_workers=workers,
                 action_noise=NOISE,
@@ -103,7 +127,7 @@ def main() -> None:
             start = time.perf_counter()
             collect_demos(cfg)
             minutes = (time.perf_counter() - start) / 60
-            rate_per_minute = args.demos / minutes
+            rate_per_minute = demos / minutes
             print(f"lerobot-ivmc-collect, {workers} workers: {rate_per_minute:.1f} pick-place-v3 demos/min")
 
 
