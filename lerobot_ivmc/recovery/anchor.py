@@ -48,10 +48,8 @@ from lerobot_ivmc.recovery.strategy_settings import ANCHOR_GOAL_STEPS, MAX_HELD_
 # Carry at least this high above the believed goal (metres), so the object clears the table on the way.
 CARRY_CLEARANCE = 0.05
 # An object that is let go at its goal is lowered to this height above the believed goal (metres) first. One
-# that stays held (pick_reach: the stick's far end touches the target while held) is brought to the goal
-# itself: the goal head's label is where the object is at the demo's end, with the task done (pick_reach's
-# stick then rests on the table; 2 cm above it the far end misses the 3 cm touch height, and a re-grasp and
-# carry with exact beliefs fails).
+# that stays held is brought to the goal itself: the goal head learns where the object is at the demo's end,
+# with the task done (docs/recovery.md, anchor).
 PLACE_CLEARANCE = 0.02
 # After a release, the gripper rises this far (metres) with open fingers.
 RELEASE_LIFT = 0.05
@@ -127,8 +125,9 @@ class WaypointMoves(Manoeuvre):
         target: the point the recovery event reports (where the object is placed, grasped or pushed to),
             (3,).
         reset_memory: hand back with a fresh memory (else with the memory as it is).
-        then_carry: once over, the controller carries the object to the anchored goal if it holds it.
-        then_push: once over, the controller may push the object this many legs more.
+        then_carry: once over, anchor carries the object to the anchored goal if it holds it (a re-grasp,
+            whose `held_offset` is where it grasped the object's centre from the grip point, (3,)).
+        then_push: once over, anchor may push the object this many legs more.
     """
 
     def __init__(
@@ -152,6 +151,7 @@ class WaypointMoves(Manoeuvre):
         self.reset_memory = reset_memory
         self.then_carry = then_carry
         self.then_push = then_push
+        self.held_offset: np.ndarray | None = None
         self.held = 0
         self.finished = False
 
@@ -218,10 +218,8 @@ def carry_to_goal(
 class LookFromStart(Manoeuvre):
     """Locate the object afresh where a fresh memory learned to: rise, return to the grip position the
     episode started from (every demo's first frames), reset the memory on arrival and hold still `steps`
-    steps, the gripper as last commanded; then hand over to anchor's manoeuvre (`then_anchor`), which acts on
-    what the object head believes from those frames. (From where the trigger fired the head is no help: on
-    push's failures it places the cube in front of the fingers, where the demos always have it, also with a
-    fresh memory.)
+    steps, the gripper as last commanded; then anchor's manoeuvre follows, acting on what the object head
+    believes from those frames (docs/RESULTS.md, "push: the frame head").
 
     Args:
         grip: the grip point now, (3,).
@@ -234,7 +232,6 @@ class LookFromStart(Manoeuvre):
     """
 
     phase = LOOK
-    then_anchor = True
 
     def __init__(
         self,

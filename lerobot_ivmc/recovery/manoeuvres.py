@@ -71,18 +71,11 @@ class MemoryChange:
 
 
 class Manoeuvre:
-    """Base class: `phase` for the traces, `finished` once over; `then_carry`: once over, the controller
-    carries a held object on (`anchor.py`'s re-grasp, which sets `held_offset`: where it grasped the
-    object's centre from the grip point, (3,)); `then_push`: once over, the controller may push the
-    object this many legs more (`anchor.py`'s push); `then_anchor`: once over, the controller starts
-    anchor's manoeuvre (`anchor.py`'s look)."""
+    """Base class: `phase` for the traces, `finished` once over. What follows a manoeuvre is its strategy's
+    choice (`RecoveryStrategy.follow`)."""
 
     phase: int = NORMAL
     finished: bool = False
-    then_carry: bool = False
-    held_offset: np.ndarray | None = None
-    then_push: int = 0
-    then_anchor: bool = False
 
     def advance(self, grip: np.ndarray) -> MemoryChange | None:
         raise NotImplementedError

@@ -86,16 +86,15 @@ class VMCConfig(PreTrainedConfig):
         rollout_memory: how the LSTM memory runs at rollout; None follows `training_mode`. "trajectory" (the
             paper): one LSTM step per control step, (h, c) carried along the whole episode and cleared by
             `reset()`, as in sequence training. "window": the memory is the state representations of the last
-            K frames and the LSTM re-runs from zero memory over them at every step, as in window training. A
-            window-trained policy drifts with a carried memory it never saw (measured: VMC, K = 4, 12,000
-            steps, 20 validation scenes: reach 35% carried vs 95% with "window"; docs/training_experiments.md,
+            K frames and the LSTM re-runs from zero memory over them at every step, as in window training (a
+            window-trained policy drifts with a carried memory it never saw: docs/training_experiments.md,
             "K = 4 `vmc` and `bvmc` on 2,000 demos (the window baseline)").
         goal_head: beyond the paper: a fifth head predicts, from every frame, where the object is at the end
             of its demonstration (on the target in push and pick-and-place), an MSE loss weighed like the
-            auxiliary ones. The paper's policies learn the target's position only through the action loss,
-            and place last (docs/training_experiments.md, "Sequence training with the carried memory").
-            Needs sequence training on whole demos (`chunk_length` equal to every demo's length), so that
-            each chunk's last frame is its demo's end. None (the default): on in sequence training, off in
+            auxiliary ones, so the target's position is learned directly, not only through the action loss
+            (docs/training_experiments.md, "Sequence training with the carried memory"). Needs sequence
+            training on whole demos (`chunk_length` equal to every demo's length), so that each chunk's last
+            frame is its demo's end. None (the default): on in sequence training, off in
             window training; false is the paper's network.
         frame_position_head: beyond the paper: a linear head reads the end-effector and object positions
             (with `goal_head` also the object's position at the demo's end, i.e. the target) from each
@@ -103,9 +102,8 @@ class VMCConfig(PreTrainedConfig):
             auxiliary ones on every trained frame. The paper's auxiliary heads read the LSTM embedding,
             which can answer from the carried memory (the expert's path so far) instead of the image; this
             head makes the CNN find the cube (and the target) in every frame. A training target only, never
-            used to act; on by default (it made the policies reach the cube 2 to 4 times sooner: runs 8 to 10
-            of docs/training_experiments.md, "Sequence training with the carried memory"); false is the
-            paper's network.
+            used to act; on by default (docs/training_experiments.md, "Sequence training with the carried
+            memory"); false is the paper's network.
         aux_state_indices: the entries of `observation.environment_state` the auxiliary heads learn, the
             end effector's x, y, z then the object's (six). None: all six of a 6-D environment state (the
             Fetch datasets); with another state (MetaWorld's 39-D: [0, 1, 2, 4, 5, 6], which
