@@ -93,25 +93,13 @@ class RecoveryConfig:
     reach: ReachSettings = field(default_factory=ReachSettings)
 
     def for_task_traits(self, traits: TaskTraits) -> RecoveryConfig:
-        """`for_task` with a task's object handling and geometry (`IvmcFetchEnv.traits()`)."""
-        return self.for_task(
-            traits.object_picked, traits.object_held_at_end, traits.rest_height, traits.half_length
-        )
+        """These settings with anchor's unset task-dependent ones taken from a task's traits
+        (`AnchorSettings.for_traits`; the settings themselves for another mode)."""
+        return replace(self, anchor=self.anchor.for_traits(traits)) if self.mode == "anchor" else self
 
-    def for_task(
-        self,
-        object_picked: bool,
-        object_held_at_end: bool,
-        object_rest_height: float = math.nan,
-        object_half_length: float | None = None,
-    ) -> RecoveryConfig:
-        """These settings with anchor's unset task-dependent ones taken from the task's object handling and
-        geometry (`AnchorSettings.for_task`; the settings themselves for another mode)."""
-        if self.mode != "anchor":
-            return self
-        extra = {} if object_half_length is None else {"object_half_length": object_half_length}
-        anchor = self.anchor.for_task(object_picked, object_held_at_end, object_rest_height, **extra)
-        return replace(self, anchor=anchor)
+    def for_task(self, *args, **kwargs) -> RecoveryConfig:
+        """`for_task_traits` with the traits given one by one (`AnchorSettings.for_task`)."""
+        return replace(self, anchor=self.anchor.for_task(*args, **kwargs)) if self.mode == "anchor" else self
 
     def __post_init__(self) -> None:
         check_choice("mode", self.mode, RECOVERY_MODES)

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from helpers.clis import ENV_FLAGS, run_cli, run_main
-from helpers.policies import TINY_REPO_ID, build_expert_dataset
+from helpers.clis import ENV_FLAGS, run_cli, run_main, tiny_training_flags
+from helpers.policies import build_expert_dataset
 
 
 @pytest.fixture(scope="session")
@@ -19,20 +19,10 @@ def tiny_bvmc(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = root / "train"
     run_cli(
         "lerobot-ivmc-train",
-        "--policy.type=bvmc",
+        *tiny_training_flags("bvmc", dataset, out, steps=5),
         "--policy.num_samples=8",
         "--policy.chunk_length=30",  # the defaults (sequence training, both heads) on the 30-frame demos
-        f"--dataset.repo_id={TINY_REPO_ID}",
-        f"--dataset.root={dataset}",
-        "--policy.device=cpu",
-        "--policy.push_to_hub=false",
-        "--wandb.enable=false",
-        "--eval_freq=0",
-        "--steps=5",
-        "--save_freq=5",
         "--batch_size=4",
-        "--num_workers=0",
-        f"--output_dir={out}",
     )
     return out / "checkpoints" / "000005" / "pretrained_model"
 

@@ -23,6 +23,26 @@ def console_script(name: str) -> str:
     return str(script) if script.exists() else shutil.which(name)
 
 
+def tiny_training_flags(policy_type: str, dataset: Path, out: Path, steps: int) -> list[str]:
+    """`lerobot-train`'s flags for a `policy_type` run of `steps` steps on the tiny dataset at `dataset`,
+    local and offline, saving at the last step."""
+    from helpers.policies import TINY_REPO_ID
+
+    return [
+        f"--policy.type={policy_type}",
+        f"--dataset.repo_id={TINY_REPO_ID}",
+        f"--dataset.root={dataset}",
+        "--policy.device=cpu",
+        "--policy.push_to_hub=false",
+        "--wandb.enable=false",
+        "--eval_freq=0",
+        f"--steps={steps}",
+        f"--save_freq={steps}",
+        "--num_workers=0",
+        f"--output_dir={out}",
+    ]
+
+
 def run_cli(name: str, *args: str) -> subprocess.CompletedProcess:
     """Run a console script in a subprocess and check it succeeds."""
     result = subprocess.run([console_script(name), *args], capture_output=True, text=True, timeout=600)

@@ -7,12 +7,11 @@ from __future__ import annotations
 import json
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 import torch
-from helpers.policies import TINY_REPO_ID
+from helpers.clis import console_script, tiny_training_flags
 from lerobot.envs.factory import make_env, make_env_pre_post_processors
 from lerobot.policies.factory import get_policy_class, make_pre_post_processors
 from lerobot.scripts.lerobot_eval import rollout
@@ -24,12 +23,6 @@ from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
 pytestmark = pytest.mark.slow
 
 STEPS = 5
-
-
-def console_script(name: str) -> str:
-    """A console script of this interpreter's environment (`lerobot-train`, `lerobot-ivmc-train`)."""
-    script = Path(sys.executable).with_name(name)
-    return str(script) if script.exists() else shutil.which(name)
 
 
 WINDOW = ("--policy.training_mode=window",)
@@ -45,21 +38,7 @@ def train_command(
     command: str, policy_type: str, dataset: Path, out: Path, steps: int, *extra: str
 ) -> list[str]:
     """A `lerobot-train`-style command on the tiny dataset, local and offline, saving at the last step."""
-    return [
-        console_script(command),
-        f"--policy.type={policy_type}",
-        f"--dataset.repo_id={TINY_REPO_ID}",
-        f"--dataset.root={dataset}",
-        "--policy.device=cpu",
-        "--policy.push_to_hub=false",
-        "--wandb.enable=false",
-        "--eval_freq=0",
-        f"--steps={steps}",
-        f"--save_freq={steps}",
-        "--num_workers=0",
-        f"--output_dir={out}",
-        *extra,
-    ]
+    return [console_script(command), *tiny_training_flags(policy_type, dataset, out, steps), *extra]
 
 
 @pytest.mark.parametrize(
