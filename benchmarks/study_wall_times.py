@@ -9,7 +9,7 @@ runs as fast beside others as it did alone on 2 cores (memory bandwidth and the 
 aside); the ratios are within one run.
 
 Usage:
-    python benchmarks/study_wall_times.py docs/results/pick_place.json [...] [--cpus 2 16]
+    python benchmarks/study_wall_times.py docs/results/archive/pick_place.json [...] [--cpus 2 16]
 """
 
 from __future__ import annotations

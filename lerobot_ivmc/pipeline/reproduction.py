@@ -11,7 +11,7 @@ training seed next to min unc's, so a reader sees whether a margin exceeds what 
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from lerobot_ivmc.envs import TASKS
@@ -367,18 +367,37 @@ JSON_FILE = "reproduction.json"
 class SummaryConfig:
     """Args:
     results_dir: the folder holding the studies' `<task>.json` files.
-    output_dir: where reproduction.md and reproduction.json go; default: `results_dir`.
+    results: instead of `results_dir`, the studies' results JSONs by path (any names, one per task).
+    output_dir: where reproduction.md and reproduction.json go; default: `results_dir`, or the folder of
+        the first of `results`.
     """
 
     results_dir: Path | None = None
+    results: list[Path] = field(default_factory=list)
     output_dir: Path | None = None
 
 
+def given_results(paths: list[Path]) -> list[Path]:
+    """`paths` in the paper's task order, refused where a task comes twice."""
+    tasks = [load_results(Path(path))["task"] for path in paths]
+    twice = sorted({task for task in tasks if tasks.count(task) > 1})
+    if twice:
+        raise ResultsError(f"--results holds more than one study of {', '.join(twice)}: give one per task.")
+    order = {task: index for index, task in enumerate(TASKS)}
+    return [
+        Path(path) for _, path in sorted(zip(tasks, paths, strict=True), key=lambda p: order.get(p[0], 99))
+    ]
+
+
 def write_summary(cfg: SummaryConfig) -> tuple[Path, Path]:
-    if cfg.results_dir is None:
-        raise ValueError("Give --results_dir=<folder with the studies' <task>.json files>.")
-    markdown, summary = summarize(find_results(Path(cfg.results_dir)))
-    out = Path(cfg.output_dir or cfg.results_dir)
+    if (cfg.results_dir is None) == (not cfg.results):
+        raise ValueError(
+            "Give --results_dir=<folder with the studies' <task>.json files> or "
+            "--results='[<a study's results JSON>,...]', not both."
+        )
+    paths = given_results(cfg.results) if cfg.results else find_results(Path(cfg.results_dir))
+    markdown, summary = summarize(paths)
+    out = Path(cfg.output_dir or cfg.results_dir or paths[0].parent)
     out.mkdir(parents=True, exist_ok=True)
     (out / MARKDOWN_FILE).write_text(markdown)
     (out / JSON_FILE).write_text(json.dumps(summary, indent=2))

@@ -215,3 +215,22 @@ def test_rescue_per_mode_pooled_over_seeds_with_the_goal(tmp_path: Path) -> None
     _, json_path = write_summary(SummaryConfig(results_dir=tmp_path, output_dir=tmp_path / "again"))
     (line,) = json.loads(json_path.read_text())["rescue"]
     assert (line["train_seeds"], line["rescue_rate"], line["goal_met"]) == ([1000, 2000], 40 / 60, True)
+
+
+def test_studies_given_by_path_are_summarised_in_the_paper_s_task_order(tmp_path: Path) -> None:
+    """`--results` takes the studies' results JSONs under any names (the records' descriptive ones), puts
+    them in the paper's order and refuses two of one task."""
+    good = {"vmc": 66.0, "none": 70.0, "rand": 69.0, "init": 73.0, "min_unc": 75.0}
+    place = tmp_path / "pick_place_lite_fast_fc1.json"
+    push = tmp_path / "push_lite_fast_fc1.json"
+    place.write_text(json.dumps(study("pick_place", {1: good}, True, 9980, -0.88)))
+    push.write_text(json.dumps(study("push", {1: good}, True, 9980, -0.9)))
+    markdown_path, json_path = write_summary(
+        SummaryConfig(results=[place, push], output_dir=tmp_path / "out")
+    )
+    assert [goal["task"] for goal in json.loads(json_path.read_text())["goals"]] == ["push", "pick_place"]
+    assert "| pick_place | 1 | place | 66 / 70 / 75 |" in markdown_path.read_text()
+    with pytest.raises(ResultsError, match="more than one study of pick_place"):
+        write_summary(SummaryConfig(results=[place, place]))
+    with pytest.raises(ValueError, match="not both"):
+        write_summary(SummaryConfig(results_dir=tmp_path, results=[place]))
