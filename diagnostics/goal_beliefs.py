@@ -6,7 +6,7 @@ anchor does (the mean over the 30 least uncertain steps up to `--step`, about wh
 measures, in the table plane, its distance from the goal head's label: where the object is at the end of
 the scripted demo of the same scene. It prints, over the failures and the successes, the median error and
 the share within the target's 3 cm radius. This is how anchor's goal for pick_reach came to be read from
-the frame head (docs/RESULTS.md, "pick_reach: the frame head").
+the frame head (docs/archive/RESULTS_studies.md, "pick_reach: the frame head").
 
     python -m diagnostics.goal_beliefs --policy.path=<bvmc> --env.type=ivmc --env.task=pick_reach \\
         --env.episode_length=200 --env.render_style=fast --env.split=val --eval.n_episodes=100 \\

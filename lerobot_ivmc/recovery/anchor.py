@@ -219,7 +219,7 @@ class LookFromStart(Manoeuvre):
     """Locate the object afresh where a fresh memory learned to: rise, return to the grip position the
     episode started from (every demo's first frames), reset the memory on arrival and hold still `steps`
     steps, the gripper as last commanded; then anchor's manoeuvre follows, acting on what the object head
-    believes from those frames (docs/RESULTS.md, "push: the frame head").
+    believes from those frames (docs/archive/RESULTS_studies.md, "push: the frame head").
 
     Args:
         grip: the grip point now, (3,).

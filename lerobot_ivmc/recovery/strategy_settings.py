@@ -19,11 +19,11 @@ REACH_BELIEF = ("look", "start", "now")
 
 # anchor's goal is the mean of the goals believed at this many least uncertain steps: one step's belief is
 # noisy, and fewer steps can all fall after the belief drifted
-# (docs/RESULTS.md, "anchor's goal over 30 steps").
+# (docs/archive/RESULTS_studies.md, "anchor's goal over 30 steps").
 ANCHOR_GOAL_STEPS = 30
 # Before anchor goes for a pushed object (or one held at the end), the arm looks from the start pose this
 # many steps with a fresh memory and anchor reads the frame position head, which a false memory does not
-# mislead (docs/RESULTS.md, "push: the frame head" and "pick_reach: the frame head").
+# mislead (docs/archive/RESULTS_studies.md, "push: the frame head" and "pick_reach: the frame head").
 LOOK_STEPS = 6
 # A carry corrects the believed offset of a held object's centre from the grip point up to the object's
 # longest half-size plus this margin (metres): 5 cm for pick_place's cube, 12.5 cm for pick_reach's stick,
