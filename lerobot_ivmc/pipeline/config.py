@@ -141,19 +141,28 @@ class ThresholdStageConfig:
 @dataclass
 class RegimeConfig:
     """The data-budget rule (`pipeline/regime.py`): the same rule for every task, for a task BVMC solves at
-    full data (pick_reach at `lite`), chosen on validation scenes before any test run.
+    full data (pick_reach at `lite`), chosen on validation scenes before any test run. The budget is the
+    number of demos or the number of training steps, one of the two.
 
     Args:
         demo_budgets: demo counts to try after the preset's own, largest first (e.g. [1000, 500, 250]);
             empty (the default): the study trains on all its demos, no rule.
+        train_steps: training lengths to try after the preset's own `--train.steps`, longest first (e.g.
+            [2000, 1000]), on all the demos: for a task solved even with few demos.
         failure_range: the [low, high] fraction of validation scenes BVMC should fail.
         n_episodes, batch_size: validation scenes of each budget's probe (the threshold's first scenes).
     """
 
     demo_budgets: list[int] = field(default_factory=list)
+    train_steps: list[int] = field(default_factory=list)
     failure_range: list[float] = field(default_factory=lambda: [0.2, 0.4])
     n_episodes: int = 50
     batch_size: int = 10
+
+    @property
+    def budget(self) -> str | None:
+        """What the rule varies: "demos", "steps", or None when it is off."""
+        return "demos" if self.demo_budgets else "steps" if self.train_steps else None
 
 
 @dataclass
@@ -205,7 +214,8 @@ class PipelineConfig:
             beyond the paper, "anchor" (a policy trained with the goal head; the Fetch tasks) and "retry"
             (no task knowledge).
         fig3: the Fig. 3 evaluation (BVMC without recovery, many test episodes) and detection metrics.
-        regime: the data-budget rule (off unless `--regime.demo_budgets` lists budgets).
+        regime: the data-budget rule (off unless `--regime.demo_budgets` or `--regime.train_steps` lists
+            budgets).
         executor: where the stages run: one after the other here (local), or side by side on Ray.
         async_envs: foresight, threshold and evaluation stages step each sub-env in its own process
             (`--eval.use_async_envs`; the same episodes as in one process). Off by default: on 2 cores, 10
@@ -320,13 +330,27 @@ class PipelineConfig:
             raise ValueError(
                 f"--regime.failure_range must be [low,high] with 0 <= low < high <= 1, got {r.failure_range}."
             )
-        if not r.demo_budgets:
+        if r.demo_budgets and r.train_steps:
+            raise ValueError(
+                "--regime.demo_budgets and --regime.train_steps each set the budget the rule varies; "
+                "give one."
+            )
+        if not (r.demo_budgets or r.train_steps):
             return
-        budgets = [self.collect.dataset.num_episodes, *r.demo_budgets]
+        flag, given, preset = (
+            (
+                "demo_budgets",
+                r.demo_budgets,
+                ("collect.dataset.num_episodes", self.collect.dataset.num_episodes),
+            )
+            if r.demo_budgets
+            else ("train_steps", r.train_steps, ("train.steps", self.train.steps))
+        )
+        budgets = [preset[1], *given]
         if any(b <= 0 for b in budgets) or any(a <= b for a, b in zip(budgets, budgets[1:], strict=False)):
             raise ValueError(
-                "--regime.demo_budgets must be positive and decreasing, each below "
-                f"--collect.dataset.num_episodes={budgets[0]}, got {r.demo_budgets}."
+                f"--regime.{flag} must be positive and decreasing, each below --{preset[0]}={preset[1]}, "
+                f"got {given}."
             )
         if not 0 < r.batch_size <= r.n_episodes:
             raise ValueError(

@@ -2,13 +2,16 @@
 recovery to be measured (a task solved at full data, such as pick_reach at `lite`, has nothing to recover).
 
     lerobot-ivmc-pipeline --task=pick_reach --preset=lite --regime.demo_budgets=[1000,500,250]
+    lerobot-ivmc-pipeline --task=door-open-v3 --preset=metaworld --regime.train_steps=[2000,1000]
 
-Budgets are tried from the largest, the preset's demo count (`--collect.dataset.num_episodes`), then each
-of `--regime.demo_budgets` in turn. A budget's probe is the start of an ordinary study in
-`<output_dir>/demos<n>/` with that many demos (the collector records attempts in a fixed order, so they
-are the first n demos of every larger budget): the collection, the main seed's BVMC training of the first
-#fc, and BVMC without recovery on `--regime.n_episodes` validation scenes (the threshold's first scenes;
-no test scene is touched). The rule (`choose_budget`):
+The budget is the number of demos (`--regime.demo_budgets`) or, for a task solved even with few demos, the
+number of training steps on all of them (`--regime.train_steps`). Budgets are tried from the largest, the
+preset's (`--collect.dataset.num_episodes` or `--train.steps`), then each of the listed ones in turn. A
+budget's probe is the start of an ordinary study in `<output_dir>/demos<n>/` (or `steps<n>/`) with that
+budget (the collector records attempts in a fixed order, so n demos are the first n demos of every larger
+budget): the collection, the main seed's BVMC training of the first #fc, and BVMC without recovery on
+`--regime.n_episodes` validation scenes (the threshold's first scenes; no test scene is touched). The rule
+(`choose_budget`):
 
 - the first budget whose validation failure rate lies in `--regime.failure_range` (default 20-40%) is
   chosen;
@@ -26,7 +29,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass, replace
 
 from lerobot_ivmc.atomic_files import write_json_atomic
 from lerobot_ivmc.constants import EVAL_INFO_FILE, LAST_PRETRAINED_MODEL
@@ -41,9 +44,9 @@ PROBE_STAGE = "regime_val"
 
 @dataclass
 class BudgetProbe:
-    """One budget's validation run: BVMC without recovery, trained on `demos` demos."""
+    """One budget's validation run: BVMC without recovery, trained with `budget` demos or steps."""
 
-    demos: int
+    budget: int
     episodes: int
     failures: int
 
@@ -58,29 +61,36 @@ def distance_to_range(rate: float, low: float, high: float) -> float:
 
 
 def choose_budget(probes: list[BudgetProbe], low: float, high: float, exhausted: bool) -> int | None:
-    """The rule, on the probes so far (largest budget first): the chosen number of demos, or None when the
-    next smaller budget must be probed. `exhausted`: no smaller budget is left to probe."""
+    """The rule, on the probes so far (largest budget first): the chosen budget, or None when the next
+    smaller budget must be probed. `exhausted`: no smaller budget is left to probe."""
     if not probes:
         raise ValueError("choose_budget needs at least one probe.")
     last = probes[-1]
     if low <= last.failure_rate <= high:
-        return last.demos
+        return last.budget
     if last.failure_rate > high:
         candidates = probes[-2:]  # the overshooting budget and the one before it (larger first)
-        return min(candidates, key=lambda p: distance_to_range(p.failure_rate, low, high)).demos
-    return last.demos if exhausted else None
+        return min(candidates, key=lambda p: distance_to_range(p.failure_rate, low, high)).budget
+    return last.budget if exhausted else None
 
 
 def budgets(cfg: PipelineConfig) -> list[int]:
-    """The demo counts to try, largest first: the preset's, then `--regime.demo_budgets`."""
+    """The budgets to try, largest first: the preset's demos or steps, then the listed ones."""
+    if cfg.regime.budget == "steps":
+        return [cfg.train.steps, *cfg.regime.train_steps]
     return [cfg.collect.dataset.num_episodes, *cfg.regime.demo_budgets]
 
 
-def budget_config(cfg: PipelineConfig, demos: int) -> PipelineConfig:
-    """The study of `demos` demos, in `<output_dir>/demos<n>`, without the rule."""
-    collect = replace(cfg.collect, dataset=replace(cfg.collect.dataset, num_episodes=demos))
-    regime = replace(cfg.regime, demo_budgets=[])
-    return replace(cfg, collect=collect, regime=regime, output_dir=cfg.root / f"demos{demos}")
+def budget_config(cfg: PipelineConfig, budget: int) -> PipelineConfig:
+    """The study of one budget, in `<output_dir>/demos<n>` (or `steps<n>`), without the rule."""
+    axis = cfg.regime.budget or "demos"
+    regime = replace(cfg.regime, demo_budgets=[], train_steps=[])
+    if axis == "steps":
+        return replace(
+            cfg, train=replace(cfg.train, steps=budget), regime=regime, output_dir=cfg.root / f"steps{budget}"
+        )
+    collect = replace(cfg.collect, dataset=replace(cfg.collect.dataset, num_episodes=budget))
+    return replace(cfg, collect=collect, regime=regime, output_dir=cfg.root / f"demos{budget}")
 
 
 def probe_stages(cfg: PipelineConfig) -> list[Stage]:
@@ -108,11 +118,11 @@ def probe_stages(cfg: PipelineConfig) -> list[Stage]:
     return [find_stage(stages, COLLECT_STAGE), training, probe]
 
 
-def read_probe(stage: Stage, demos: int) -> BudgetProbe:
+def read_probe(stage: Stage, budget: int) -> BudgetProbe:
     """The failures of a finished probe stage, from its `eval_info.json`."""
     info = json.loads((stage.output / EVAL_INFO_FILE).read_text())
     successes = [bool(episode["success"]) for episode in info["per_episode"]]
-    return BudgetProbe(demos, len(successes), successes.count(False))
+    return BudgetProbe(budget, len(successes), successes.count(False))
 
 
 def run_regime(cfg: PipelineConfig, run_study: Callable[[PipelineConfig], dict], log=print) -> dict:
@@ -121,20 +131,20 @@ def run_regime(cfg: PipelineConfig, run_study: Callable[[PipelineConfig], dict],
     root = cfg.root
     claim_root(root, {"task": cfg.task, "preset": cfg.preset, "regime": True})
     low, high = cfg.regime.failure_range
+    axis = cfg.regime.budget or "demos"
     tried = budgets(cfg)
     probes: list[BudgetProbe] = []
     with study_lock(root):
-        for index, demos in enumerate(tried):
-            study = budget_config(cfg, demos)
+        for index, budget in enumerate(tried):
+            study = budget_config(cfg, budget)
             claim_root(study.root, {"task": cfg.task, "preset": cfg.preset})
-            log(f"Regime: probing {demos} demos in {study.root}")
+            log(f"Regime: probing {budget} {axis} in {study.root}")
             stages = probe_stages(study)
             with study_lock(study.root):
                 run_stages(study.root, stages, log)
-            probes.append(read_probe(stages[-1], demos))
-            log(
-                f"Regime: {demos} demos, BVMC fails {probes[-1].failures} of {probes[-1].episodes} val scenes"
-            )
+            probes.append(read_probe(stages[-1], budget))
+            probe = probes[-1]
+            log(f"Regime: {budget} {axis}, BVMC fails {probe.failures} of {probe.episodes} val scenes")
             chosen = choose_budget(probes, low, high, exhausted=index == len(tried) - 1)
             if chosen is not None:
                 break
@@ -144,15 +154,23 @@ def run_regime(cfg: PipelineConfig, run_study: Callable[[PipelineConfig], dict],
             "last two; none reached, the smallest",
             "failure_range": [low, high],
             "validation_episodes": cfg.regime.n_episodes,
-            "probes": [{**asdict(p), "failure_rate": p.failure_rate} for p in probes],
-            "chosen_demos": chosen,
-            "range_reached": any(low <= p.failure_rate <= high for p in probes if p.demos == chosen),
+            "probes": [
+                {
+                    axis: p.budget,
+                    "episodes": p.episodes,
+                    "failures": p.failures,
+                    "failure_rate": p.failure_rate,
+                }
+                for p in probes
+            ],
+            f"chosen_{axis}": chosen,
+            "range_reached": any(low <= p.failure_rate <= high for p in probes if p.budget == chosen),
             "study": str(chosen_study.root),
         }
         write_json_atomic(root / REGIME_FILE, record)
         # (before the study: its results JSON, written after each stage, carries the record)
         write_json_atomic(chosen_study.root / RESULTS_DIR / REGIME_FILE, record)
-        rates = ", ".join(f"{p.demos}: {p.failure_rate:.0%}" for p in probes)
-        log(f"Regime: {chosen} demos chosen (validation failure rate by demos: {rates})")
+        rates = ", ".join(f"{p.budget}: {p.failure_rate:.0%}" for p in probes)
+        log(f"Regime: {chosen} {axis} chosen (validation failure rate by {axis}: {rates})")
         results = run_study(chosen_study)
     return {**results, "regime": record}

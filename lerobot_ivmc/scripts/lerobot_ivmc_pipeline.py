@@ -9,8 +9,9 @@ refused). Rerun the same command to resume: finished stages are skipped, a kille
 it can be (demo collection, a training from its last checkpoint) or redone, and a changed stage reruns with
 everything after it. Results: `<output_dir>/results/` (`<task>.json`, `table.md`, plots, videos), written as
 each #fc finishes (and as each extra training seed's evaluations do, `--train.extra_seeds=[2000]`).
-With `--regime.demo_budgets=[...]` the study first chooses its number of demos by the data-budget rule
-(`lerobot_ivmc/pipeline/regime.py`) and runs in `<output_dir>/demos<n>/`. Several tasks make one study each
+With `--regime.demo_budgets=[...]` (or `--regime.train_steps=[...]`) the study first chooses its number of
+demos (or training steps) by the data-budget rule (`lerobot_ivmc/pipeline/regime.py`) and runs in
+`<output_dir>/demos<n>/` (or `steps<n>/`). Several tasks make one study each
 (`<output_dir>/<task>`), one after the other, or side by side on one Ray cluster with `--executor.type=ray`.
 """
 
@@ -27,7 +28,7 @@ def main(argv: list[str] | None = None) -> None:
     argv = sys.argv[1:] if argv is None else argv
 
     def run_study(cfg, log) -> dict:
-        if cfg.regime.demo_budgets:
+        if cfg.regime.budget:
             return run_regime(cfg, lambda study: run_pipeline(study, log), log)
         return run_pipeline(cfg, log)
 

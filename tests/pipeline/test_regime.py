@@ -116,3 +116,48 @@ def test_probes_run_each_budget_s_study_start_then_the_chosen_study(tmp_path: Pa
     run_regime(parse_config(args), run_study, log=lines.append)
     assert sum("regime_val: done earlier" in line for line in lines) == 2
     assert not any(": running" in line for line in lines)
+
+
+def test_both_budgets_and_bad_training_lengths_are_refused_in_one_line() -> None:
+    both = refusal("--regime.demo_budgets=[2]", "--regime.train_steps=[2]")
+    assert (
+        "--regime.demo_budgets and --regime.train_steps each set the budget the rule varies; give one."
+        in both
+    )
+    too_long = refusal("--regime.train_steps=[8]")
+    assert (
+        "--regime.train_steps must be positive and decreasing, each below --train.steps=4, got [8]"
+        in too_long
+    )
+    assert "--regime.train_steps must be positive and decreasing" in refusal("--regime.train_steps=[2,3]")
+
+
+def test_the_training_length_rule_probes_shorter_trainings_on_all_the_demos(
+    tmp_path: Path, monkeypatch
+) -> None:
+    """`--regime.train_steps`: each probe is the start of a study with all the demos and fewer training
+    steps, in `steps<n>/`; the record names the budget `steps`. Stages are not run here (the probes' run is
+    the demo-budget test's above); the failures are scripted: 0 of 50 at 4 steps, 3 at 2, 15 at 1."""
+    out = tmp_path / "regime"
+    args = ["--task=pick_reach", "--preset=smoke", f"--output_dir={out}", "--regime.train_steps=[2,1]"]
+    cfg = parse_config(args)
+    assert regime.budgets(cfg) == [4, 2, 1]
+    two = regime.budget_config(cfg, 2)
+    assert (two.root, two.train.steps) == (out / "steps2", 2)
+    assert two.collect.dataset.num_episodes == cfg.collect.dataset.num_episodes
+    assert not two.regime.budget  # the chosen study runs without the rule
+
+    scripted_failures = {4: 0, 2: 3, 1: 15}
+    monkeypatch.setattr(regime, "run_stages", lambda root, stages, log: None)
+    monkeypatch.setattr(
+        regime, "read_probe", lambda stage, steps: BudgetProbe(steps, 50, scripted_failures[steps])
+    )
+    trained_steps = [stage.name for stage in regime.probe_stages(two) if stage.name.startswith("train")]
+    assert trained_steps == ["train_bvmc_fc1"]
+    studies = []
+    results = run_regime(cfg, lambda study: studies.append(study) or {}, log=lambda line: None)
+    record = json.loads((out / REGIME_FILE).read_text())
+    assert [(p["steps"], p["failures"]) for p in record["probes"]] == [(4, 0), (2, 3), (1, 15)]
+    assert record["chosen_steps"] == 1 and record["range_reached"]  # 30% failures: in the default 20-40%
+    assert [(s.root, s.train.steps) for s in studies] == [(out / "steps1", 1)]
+    assert results["regime"] == record
