@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from lerobot_ivmc.envs import TASKS
+from lerobot_ivmc.evaluation.compare import exact_mcnemar_p
 from lerobot_ivmc.evaluation.success_by_uncertainty import most_negative_rho
 from lerobot_ivmc.pipeline.results import finite
 from lerobot_ivmc.pipeline.tables import rescue_cells
@@ -212,6 +213,33 @@ def rescue_lines(results: dict) -> list[dict]:
     return lines
 
 
+def pooled_over_tasks(lines: list[dict]) -> list[dict]:
+    """Per #fc and recovery mode present in more than one task: the rescue counts summed over the tasks'
+    lines (each a task's seeds pooled already), with the exact test of rescued against lost and the goal's
+    verdict; task "all tasks"."""
+    pooled = []
+    for key in dict.fromkeys((line["num_fc_layers"], line["method"]) for line in lines):
+        group = [line for line in lines if (line["num_fc_layers"], line["method"]) == key]
+        if len({line["task"] for line in group}) < 2:
+            continue
+        total = {k: sum(line[k] for line in group) for k in ("failures", "flagged", "rescued", "lost")}
+        rate = (total["rescued"] - total["lost"]) / total["failures"] if total["failures"] else None
+        p = exact_mcnemar_p(total["lost"], total["rescued"])
+        pooled.append(
+            {
+                "task": "all tasks",
+                "num_fc_layers": key[0],
+                "method": key[1],
+                "train_seeds": sorted({seed for line in group for seed in line["train_seeds"]}),
+                **total,
+                "rescue_rate": rate,
+                "p": p,
+                "goal_met": None if rate is None else rate >= RESCUE_GOAL and p < RESCUE_P,
+            }
+        )
+    return pooled
+
+
 def rescue_table(lines: list[dict]) -> str:
     """One line per task, #fc and recovery mode."""
     table = [
@@ -327,10 +355,11 @@ def summarize(paths: list[Path]) -> tuple[str, dict]:
         else []
     )
     rescues = [line for study in studies for line in rescue_lines(study)]
+    rescues += pooled_over_tasks(rescues)
     rescue_section = (
         [
             "## Recovery that rescues: BVMC's failures rescued net of those lost, per mode (pooled over the "
-            "training seeds, exact matched-pairs test)",
+            'training seeds, and over the tasks in the lines "all tasks", exact matched-pairs test)',
             rescue_table(rescues),
         ]
         if rescues

@@ -234,3 +234,38 @@ def test_studies_given_by_path_are_summarised_in_the_paper_s_task_order(tmp_path
         write_summary(SummaryConfig(results=[place, place]))
     with pytest.raises(ValueError, match="not both"):
         write_summary(SummaryConfig(results_dir=tmp_path, results=[place]))
+
+
+def test_a_mode_measured_on_several_tasks_is_pooled_over_them(tmp_path: Path) -> None:
+    """The goal "rescues 40% of BVMC's failures pooled over tasks" reads one line: each task's rescued and
+    lost counts summed, with the exact test on the sums; a mode measured on one task only gets none."""
+    rates = {"vmc": 53.0, "none": 71.0, "min_unc": 73.0}
+    place = study("pick_place", {1: rates}, True, 9000, -0.86)
+    push = study("push", {1: rates}, True, 9000, -0.86)
+    place["rows"][2]["rescue"] = {
+        "failures": 29,
+        "flagged": 25,
+        "rescued": 12,
+        "lost": 0,
+        "rescue_rate": 12 / 29,
+        "mcnemar_exact_p": 5e-4,
+    }
+    push["rows"][2]["rescue"] = {
+        "failures": 21,
+        "flagged": 20,
+        "rescued": 9,
+        "lost": 1,
+        "rescue_rate": 8 / 21,
+        "mcnemar_exact_p": 0.02,
+    }
+    push["rows"].append({**push["rows"][2], "method": "rand", "rescue": {**push["rows"][2]["rescue"]}})
+    paths = [tmp_path / "place.json", tmp_path / "push.json"]
+    for path, results in zip(paths, (place, push), strict=True):
+        path.write_text(json.dumps(results))
+    markdown_path, json_path = write_summary(SummaryConfig(results=paths, output_dir=tmp_path / "out"))
+    pooled = [line for line in json.loads(json_path.read_text())["rescue"] if line["task"] == "all tasks"]
+    assert [(line["method"], line["failures"], line["rescued"], line["lost"]) for line in pooled] == [
+        ("min_unc", 50, 21, 1)
+    ]
+    assert pooled[0]["rescue_rate"] == 20 / 50 and pooled[0]["p"] < 1e-4
+    assert "| all tasks | 1 | min_unc | 1000 | 50 (45) | 21 / 1 | 40% |" in markdown_path.read_text()
