@@ -337,19 +337,15 @@ class PipelineConfig:
             )
         if not (r.demo_budgets or r.train_steps):
             return
-        flag, given, preset = (
-            (
-                "demo_budgets",
-                r.demo_budgets,
-                ("collect.dataset.num_episodes", self.collect.dataset.num_episodes),
-            )
-            if r.demo_budgets
-            else ("train_steps", r.train_steps, ("train.steps", self.train.steps))
-        )
-        budgets = [preset[1], *given]
+        if r.demo_budgets:
+            flag, given = "demo_budgets", r.demo_budgets
+            base_flag, base = "collect.dataset.num_episodes", self.collect.dataset.num_episodes
+        else:
+            flag, given, base_flag, base = "train_steps", r.train_steps, "train.steps", self.train.steps
+        budgets = [base, *given]
         if any(b <= 0 for b in budgets) or any(a <= b for a, b in zip(budgets, budgets[1:], strict=False)):
             raise ValueError(
-                f"--regime.{flag} must be positive and decreasing, each below --{preset[0]}={preset[1]}, "
+                f"--regime.{flag} must be positive and decreasing, each below --{base_flag}={base}, "
                 f"got {given}."
             )
         if not 0 < r.batch_size <= r.n_episodes:

@@ -142,8 +142,8 @@ def run_regime(cfg: PipelineConfig, run_study: Callable[[PipelineConfig], dict],
             stages = probe_stages(study)
             with study_lock(study.root):
                 run_stages(study.root, stages, log)
-            probes.append(read_probe(stages[-1], budget))
-            probe = probes[-1]
+            probe = read_probe(stages[-1], budget)
+            probes.append(probe)
             log(f"Regime: {budget} {axis}, BVMC fails {probe.failures} of {probe.episodes} val scenes")
             chosen = choose_budget(probes, low, high, exhausted=index == len(tried) - 1)
             if chosen is not None:

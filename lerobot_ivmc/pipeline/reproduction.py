@@ -15,9 +15,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from lerobot_ivmc.envs import TASKS
-from lerobot_ivmc.evaluation.compare import exact_mcnemar_p
 from lerobot_ivmc.evaluation.success_by_uncertainty import most_negative_rho
 from lerobot_ivmc.pipeline.results import finite
+from lerobot_ivmc.pipeline.seed_pool import summed_rescue
 from lerobot_ivmc.pipeline.tables import rescue_cells
 
 RHO_GOAL = -0.8
@@ -174,6 +174,11 @@ RESCUE_GOAL = 0.5
 RESCUE_P = 0.05
 
 
+def rescue_goal_met(rate: float | None, p: float) -> bool | None:
+    """The rescue goal's verdict (None: no failures to rescue)."""
+    return None if rate is None else rate >= RESCUE_GOAL and p < RESCUE_P
+
+
 def rescue_lines(results: dict) -> list[dict]:
     """Per #fc and recovery mode: the rescue over every training seed whose chain ended (the study's pooled
     record) or, in a study without extra seeds, the main seed's; with the goal's verdict."""
@@ -207,7 +212,7 @@ def rescue_lines(results: dict) -> list[dict]:
                 "lost": record["lost"],
                 "rescue_rate": rate,
                 "p": record["p"],
-                "goal_met": None if rate is None else rate >= RESCUE_GOAL and record["p"] < RESCUE_P,
+                "goal_met": rescue_goal_met(rate, record["p"]),
             }
         )
     return lines
@@ -222,19 +227,17 @@ def pooled_over_tasks(lines: list[dict]) -> list[dict]:
         group = [line for line in lines if (line["num_fc_layers"], line["method"]) == key]
         if len({line["task"] for line in group}) < 2:
             continue
-        total = {k: sum(line[k] for line in group) for k in ("failures", "flagged", "rescued", "lost")}
-        rate = (total["rescued"] - total["lost"]) / total["failures"] if total["failures"] else None
-        p = exact_mcnemar_p(total["lost"], total["rescued"])
+        summed = summed_rescue(group)
+        p = summed.pop("exact_p")
         pooled.append(
             {
                 "task": "all tasks",
                 "num_fc_layers": key[0],
                 "method": key[1],
                 "train_seeds": sorted({seed for line in group for seed in line["train_seeds"]}),
-                **total,
-                "rescue_rate": rate,
+                **summed,
                 "p": p,
-                "goal_met": None if rate is None else rate >= RESCUE_GOAL and p < RESCUE_P,
+                "goal_met": rescue_goal_met(summed["rescue_rate"], p),
             }
         )
     return pooled

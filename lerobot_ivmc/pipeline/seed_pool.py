@@ -86,16 +86,24 @@ def spread_over_seeds(rows: list[dict], recovery_rows: list[dict]) -> tuple[list
     return summary, pooled
 
 
+def summed_rescue(records: list[dict]) -> dict:
+    """Rescue records (each with failures, flagged, rescued, lost) summed, with the rescue rate net of the
+    lost and the exact test of rescued against lost on the sums (`exact_p`)."""
+    total = {k: sum(r[k] for r in records) for k in ("failures", "flagged", "rescued", "lost")}
+    return {
+        **total,
+        "rescue_rate": (total["rescued"] - total["lost"]) / total["failures"] if total["failures"] else None,
+        "exact_p": exact_mcnemar_p(total["lost"], total["rescued"]),
+    }
+
+
 def pooled_rescue(fc: int, method: str, per_seed: list[dict]) -> dict:
     """A recovery mode's rescue counts summed over the seeds' rows, with the pooled exact test."""
-    total = {k: sum(r["rescue"][k] for r in per_seed) for k in ("failures", "flagged", "rescued", "lost")}
     return {
         "num_fc_layers": fc,
         "method": method,
         "train_seeds": [r["train_seed"] for r in per_seed],
-        **total,
-        "rescue_rate": (total["rescued"] - total["lost"]) / total["failures"] if total["failures"] else None,
-        "exact_p": exact_mcnemar_p(total["lost"], total["rescued"]),
+        **summed_rescue([r["rescue"] for r in per_seed]),
     }
 
 
