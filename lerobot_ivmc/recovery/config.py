@@ -21,6 +21,7 @@ from lerobot_ivmc.recovery.strategy_settings import (
 # (a planner for the Fetch tasks on the policy's beliefs), retry and reach (they know no task).
 RECOVERY_MODES = ("none", "rand", "init", "min_unc", "anchor", "retry", "reach")
 RANDOM_STREAMS = ("batch", "episode")
+BACKOFF_FROM = ("trigger", "resume")
 
 
 @dataclass
@@ -39,6 +40,9 @@ class RecoveryConfig:
         initial_interval: T_recovery at the start of an episode, in steps; doubled at every recovery
             (binary exponential backoff). The paper leaves it open; 20 = one window, so no recovery fires
             before a full window of evidence, and a second one needs at least 40 more steps.
+        backoff_from: where T_recovery's steps are counted from: "trigger" (the last recovery's first step,
+            the paper's reading) or "resume" (the policy's resumption after the last recovery: only steps
+            in normal operation count, so a long manoeuvre does not use up the backoff).
         reset_window_after_recovery: clear the window sum when a recovery starts and add no uncertainty
             during it, so the next trigger is decided on steps after the recovery only. The paper is
             silent; without it the high uncertainties that fired the trigger keep the sum above C.
@@ -77,6 +81,7 @@ class RecoveryConfig:
     threshold: float | None = None
     window: int | None = None
     initial_interval: int = 20
+    backoff_from: str = "trigger"
     reset_window_after_recovery: bool = True
     recovery_steps: int = 25
     backtrack_horizon: int = 20
@@ -104,6 +109,7 @@ class RecoveryConfig:
     def __post_init__(self) -> None:
         check_choice("mode", self.mode, RECOVERY_MODES)
         check_choice("random_streams", self.random_streams, RANDOM_STREAMS)
+        check_choice("backoff_from", self.backoff_from, BACKOFF_FROM)
         if self.threshold is not None and not math.isfinite(self.threshold):
             raise ValueError(
                 f"--recovery.threshold must be a finite number, got {self.threshold}: a NaN threshold never "

@@ -168,6 +168,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
             self.window,
             self.recovery.initial_interval,
             self.recovery.reset_window_after_recovery,
+            self.recovery.backoff_from,
         )
         self.manoeuvres: list[Manoeuvre | None] = [None] * batch_size
         self.fifos = [deque(maxlen=self.recovery.backtrack_horizon) for _ in range(batch_size)]

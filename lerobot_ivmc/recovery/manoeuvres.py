@@ -175,9 +175,7 @@ class MoveToInit(Manoeuvre):
         embodiment: Embodiment,
     ):
         self.embodiment = embodiment
-        direction = rng.normal(size=3)
-        direction /= np.linalg.norm(direction)
-        self.target = centre + direction * radius * rng.uniform() ** (1.0 / 3.0)  # uniform in the ball
+        self.target = point_in_ball(centre, radius, rng)
         self.steps_left = steps
         self.tolerance = tolerance
         self.finished = False
@@ -268,6 +266,14 @@ class WaypointPath(Manoeuvre):
         else:
             self.stalled += 1
         return self.embodiment.move_towards(grip, stop.position, stop.gripper)
+
+
+def point_in_ball(centre: np.ndarray, radius: float, rng: np.random.Generator) -> np.ndarray:
+    """A point drawn uniformly in the ball of `radius` around `centre`, (3,) (two draws of `rng` even where
+    the radius is 0)."""
+    direction = rng.normal(size=3)
+    direction /= np.linalg.norm(direction)
+    return np.asarray(centre, dtype=np.float64) + direction * radius * rng.uniform() ** (1.0 / 3.0)
 
 
 def above(point: np.ndarray, height: float) -> np.ndarray:

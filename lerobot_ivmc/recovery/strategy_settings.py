@@ -72,13 +72,22 @@ class RetrySettings:
 
     Args:
         steps: most steps back to the start pose.
+        start_radius: retry returns to a point drawn uniformly in a ball of this radius (metres) around the
+            episode's start grip position, from the rollout's own random stream, so a second attempt does
+            not begin exactly where the first did; 0: the start position itself.
     """
 
     steps: int = 60
+    start_radius: float = 0.0
 
     def __post_init__(self) -> None:
         if self.steps < 1:
             raise ValueError(f"--recovery.retry.steps must be >= 1, got {self.steps}.")
+        if not 0.0 <= self.start_radius <= 0.5:
+            raise ValueError(
+                f"--recovery.retry.start_radius is metres around the start grip position, in [0, 0.5]; got "
+                f"{self.start_radius}."
+            )
 
 
 @dataclass

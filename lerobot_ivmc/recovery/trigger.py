@@ -18,6 +18,8 @@ class RecoveryTrigger:
         window: the sliding window's length in steps.
         initial_interval: T_recovery at the episode's start.
         reset_window_after_recovery: clear a rollout's window when it fires.
+        backoff_from: count T_recovery's steps from the last recovery's start ("trigger", the paper's) or
+            from the policy's resumption after it ("resume": only steps in normal operation count).
     """
 
     def __init__(
@@ -27,6 +29,7 @@ class RecoveryTrigger:
         window: int,
         initial_interval: int,
         reset_window_after_recovery: bool = True,
+        backoff_from: str = "trigger",
     ):
         self.threshold = threshold
         self.window = window
@@ -35,7 +38,8 @@ class RecoveryTrigger:
         self.values = np.zeros((num_rollouts, window))  # circular buffer of the last `window` values
         self.counts = np.zeros(num_rollouts, dtype=np.int64)  # values pushed since the last clear
         self.interval = np.full(num_rollouts, initial_interval, dtype=np.int64)
-        self.last_recovery = np.zeros(num_rollouts, dtype=np.int64)
+        self.backoff_from = backoff_from
+        self.since_recovery = np.zeros(num_rollouts, dtype=np.int64)  # steps counted since the last recovery
         self.decision_sums = np.zeros(num_rollouts)
 
     @property
@@ -58,12 +62,13 @@ class RecoveryTrigger:
         self.values[rows, self.counts[rows] % self.window] = uncertainty[rows]
         self.counts[rows] += 1
         self.decision_sums = self.window_sum  # what the test saw (the window may be cleared below)
-        fire = (
-            active & (self.decision_sums > self.threshold) & (self.step - self.last_recovery > self.interval)
-        )
+        fire = active & (self.decision_sums > self.threshold) & (self.since_recovery > self.interval)
         fired = np.flatnonzero(fire)
         self.interval[fired] *= 2
-        self.last_recovery[fired] = self.step
+        self.since_recovery[fired] = 0
+        # "resume": a step counts once the rollout is back in normal operation (the firing step starts the
+        # manoeuvre).
+        self.since_recovery += 1 if self.backoff_from == "trigger" else (active & ~fire)
         if self.reset_window_after_recovery:
             self.values[fired] = 0.0
             self.counts[fired] = 0

@@ -70,3 +70,29 @@ def test_the_fingers_hold_something_only_between_closed_on_nothing_and_open() ->
     assert FETCH.holds(np.array([0.024, 0.025])) and not FETCH.holds(np.array([0.001, 0.0]))
     assert SAWYER.holds(np.array([0.45])) and not SAWYER.holds(np.array([0.29]))
     assert not SAWYER.holds(np.array([1.0])) and not FAKE.holds(np.array([0.9]))
+
+
+def retry_target(start_radius: float, seed: int) -> np.ndarray:
+    """The point `retry` returns to from (0.1, 0.7, 0.05) on the synthetic robot, the rollout's draws
+    seeded by `seed`."""
+    from types import SimpleNamespace
+
+    from lerobot_ivmc.recovery.config import RecoveryConfig
+    from lerobot_ivmc.recovery.strategies import make_strategy
+    from lerobot_ivmc.recovery.strategy_settings import RetrySettings
+
+    strategy = make_strategy(RecoveryConfig(mode="retry", retry=RetrySettings(start_radius=start_radius)))
+    rng = np.random.default_rng(seed)
+    ctx = SimpleNamespace(initial_grip=np.array([[0.0, 0.6, 0.2]]), embodiment=FAKE, draws=lambda row: (rng,))
+    manoeuvre, event = strategy.begin(ctx, 0, np.array([0.1, 0.7, 0.05]), None)
+    np.testing.assert_allclose(event["target"], manoeuvre.target.round(4))
+    return manoeuvre.target
+
+
+def test_retry_with_a_start_radius_returns_near_the_start_as_its_rollouts_stream_draws() -> None:
+    start = np.array([0.0, 0.6, 0.2])
+    np.testing.assert_array_equal(retry_target(0.0, seed=1), start)  # the start itself
+    near = [retry_target(0.1, seed) for seed in range(5)]
+    assert all(0 < np.linalg.norm(point - start) <= 0.1 for point in near)
+    assert len({tuple(point) for point in near}) == 5  # another stream, another point
+    np.testing.assert_array_equal(retry_target(0.1, seed=3), near[3])  # the same stream, the same point

@@ -54,6 +54,7 @@ def test_a_strategy_s_settings_are_refused_with_another_mode(mode: str, settings
     [
         (lambda: MinUncSettings(memory="forget"), "--recovery.min_unc.memory must be one of"),
         (lambda: RetrySettings(steps=0), "--recovery.retry.steps must be >= 1"),
+        (lambda: RetrySettings(start_radius=-0.1), "--recovery.retry.start_radius is metres"),
         (lambda: AnchorSettings(steps=0), "--recovery.anchor.steps must be >= 1"),
         (lambda: AnchorSettings(object="camera"), "--recovery.anchor.object must be one of"),
         (lambda: ReachSettings(hover=2.0), "--recovery.reach.hover is in metres"),

@@ -55,3 +55,14 @@ def test_rollouts_of_a_batch_are_independent() -> None:
         trigger.update(np.array(u), np.array([True, True])) for u in ([0.0, 0.0], [1.0, 0.0], [0.0, 1.0])
     ]
     assert [f.tolist() for f in fires] == [[False, False], [True, False], [False, True]]
+
+
+def test_backoff_from_resume_counts_only_the_steps_after_the_manoeuvre() -> None:
+    # Every normal step is above C; the first recovery fires at step 2 (T 1 -> 2), its manoeuvre takes
+    # steps 3-5.
+    stream, active = [1.0] * 12, [True] * 3 + [False] * 3 + [True] * 6
+    # From the trigger: the manoeuvre's steps count, so the first normal step fires again (6 - 2 > 2).
+    assert run(RecoveryTrigger(1, 0.5, 1, initial_interval=1), stream, active)[:2] == [2, 6]
+    # From the resumption: three normal steps first (steps 6, 7 and 8: 3 > 2).
+    resume = RecoveryTrigger(1, 0.5, 1, initial_interval=1, backoff_from="resume")
+    assert run(resume, stream, active)[:2] == [2, 9]
