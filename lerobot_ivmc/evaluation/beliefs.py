@@ -94,7 +94,7 @@ class BeliefReader:
         if sampled:
             action = prediction.mean_action[0]
         else:
-            action = deterministic_action(outputs[0], outputs[1])[0]
+            action = deterministic_action(outputs[0], outputs[1], self.policy.config.gripper_commands)[0]
         beliefs = {"grip": self.to_world(outputs[2], GRIP), "object": self.to_world(outputs[3], OBJECT)}
         if self.with_goal:
             beliefs["goal"] = self.to_world(outputs[4], OBJECT)

@@ -17,6 +17,7 @@ from lerobot_ivmc.policies.bvmc.configuration_bvmc import DEFAULT_DATASET_SIZE, 
 from lerobot_ivmc.policies.bvmc.foresight import UncertaintyForesight, from_log_uncertainty
 from lerobot_ivmc.policies.bvmc.threshold_record import ThresholdRecord
 from lerobot_ivmc.policies.bvmc.uncertainty import trace_cov_uncertainty
+from lerobot_ivmc.policies.vmc.configuration_vmc import GRIPPER_COMMANDS
 from lerobot_ivmc.policies.vmc.modeling_vmc import HUB_KWARGS, VMCPolicy
 from lerobot_ivmc.policies.vmc.network import gripper_commands
 
@@ -28,12 +29,13 @@ class MCPrediction:
     """Result of one Monte Carlo control step (`BVMCPolicy.sample`).
 
     Attributes:
-        mean_action: (B, 4) action to execute: mean delta EE, and the gripper command (-1/0/+1) of the
-            class with the highest mean probability.
+        mean_action: (B, 4) action to execute: mean delta EE, and the gripper command of the class with
+            the highest mean probability.
         uncertainty: (B,) trace of the covariance of the transformed delta-EE samples, Eq. (unc-tr-cov).
         embedding: (B, lstm_dim) LSTM embedding e_t.
         delta_ee_samples: (B, S, 3) sampled delta end-effector commands.
-        gripper_probs: (B, S, 3) gripper probabilities (close, no-op, open) per sample.
+        gripper_probs: (B, S, G) gripper class probabilities per sample (G = 3: close, no-op, open).
+        gripper_levels: the gripper classes' commands (`VMCConfig.gripper_commands`).
     """
 
     mean_action: Tensor
@@ -41,11 +43,12 @@ class MCPrediction:
     embedding: Tensor
     delta_ee_samples: Tensor
     gripper_probs: Tensor
+    gripper_levels: tuple[float, ...] = GRIPPER_COMMANDS
 
     @property
     def samples(self) -> Tensor:
         """(B, S, 4) sampled actions: delta EE and each sample's most likely gripper command."""
-        gripper = gripper_commands(self.gripper_probs.argmax(dim=-1))[..., None]
+        gripper = gripper_commands(self.gripper_probs.argmax(dim=-1), self.gripper_levels)[..., None]
         return torch.cat([self.delta_ee_samples, gripper], dim=-1)
 
 
@@ -213,7 +216,9 @@ class BVMCPolicy(VMCPolicy):
             The `MCPrediction`.
         """
         embedding, delta_ee, probs = self._mc_step(batch, num_samples, noise)
-        return make_prediction(embedding, delta_ee, probs, self.config.uncertainty_lambda)
+        return make_prediction(
+            embedding, delta_ee, probs, self.config.uncertainty_lambda, self.config.gripper_commands
+        )
 
     def _mc_step(
         self, batch: dict[str, Tensor], num_samples: int | None, noise: list[Tensor] | None
@@ -235,21 +240,30 @@ class BVMCPolicy(VMCPolicy):
             return super().select_action(batch)
         self.eval()
         _, delta_ee, probs = self._mc_step(batch, None, None)
-        return mean_action(delta_ee, probs)
+        return mean_action(delta_ee, probs, self.config.gripper_commands)
 
 
-def mean_action(delta_ee: Tensor, probs: Tensor) -> Tensor:
-    """(B, 4) mean delta EE of the (B, S, 3) samples; gripper: the class of highest mean probability."""
-    gripper = gripper_commands(probs.sum(dim=1).argmax(dim=-1))  # argmax of the sum = of the mean
+def mean_action(delta_ee: Tensor, probs: Tensor, levels: tuple[float, ...] = GRIPPER_COMMANDS) -> Tensor:
+    """(B, 4) mean delta EE of the (B, S, 3) samples; gripper: the command (of `levels`) of the class of
+    highest mean probability, (B, S, G) `probs`."""
+    gripper = gripper_commands(probs.sum(dim=1).argmax(dim=-1), levels)  # argmax of the sum = of the mean
     return torch.cat([delta_ee.mean(dim=1), gripper[:, None]], dim=-1)
 
 
-def make_prediction(embedding: Tensor, delta_ee: Tensor, probs: Tensor, lam: float) -> MCPrediction:
-    """Assemble an `MCPrediction` from (B, S, 3) delta-EE samples and (B, S, 3) gripper probabilities."""
+def make_prediction(
+    embedding: Tensor,
+    delta_ee: Tensor,
+    probs: Tensor,
+    lam: float,
+    levels: tuple[float, ...] = GRIPPER_COMMANDS,
+) -> MCPrediction:
+    """Assemble an `MCPrediction` from (B, S, 3) delta-EE samples and (B, S, G) gripper probabilities of the
+    classes whose commands are `levels`."""
     return MCPrediction(
-        mean_action=mean_action(delta_ee, probs),
+        mean_action=mean_action(delta_ee, probs, levels),
         uncertainty=trace_cov_uncertainty(delta_ee, lam),
         embedding=embedding,
         delta_ee_samples=delta_ee,
         gripper_probs=probs,
+        gripper_levels=tuple(levels),
     )

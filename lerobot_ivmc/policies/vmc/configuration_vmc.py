@@ -13,7 +13,8 @@ from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
 from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE, LEGACY_RENDER_STYLE, check_render_style
 
 # Layout of the action: a continuous command (the delta end effector, 3 for the Fetch and MetaWorld arms)
-# followed by the gripper command, a class of {-1, 0, +1} (`VMCConfig.action_dim`).
+# followed by the gripper command, a class of {-1, 0, +1} or of `VMCConfig.gripper_levels`
+# (`VMCConfig.action_dim`).
 DELTA_EE_DIM = 3
 ACTION_DIM = DELTA_EE_DIM + 1
 # The auxiliary targets: end-effector (3) then object (3) position, read from `observation.environment_state`
@@ -104,6 +105,10 @@ class VMCConfig(PreTrainedConfig):
             head makes the CNN find the cube (and the target) in every frame. A training target only, never
             used to act; on by default (docs/training_experiments.md, "Sequence training with the carried
             memory"); false is the paper's network.
+        gripper_levels: the gripper commands the gripper classes stand for, ascending, at least two: each
+            demo command is learned as the class of the nearest level and a class is executed as its level.
+            None: (-1, 0, +1), each demo command rounded to the nearest (the Fetch tasks; MetaWorld's grab
+            effort of 0.6 is then executed as 1). MetaWorld's push-v3 and assembly-v3 demos: [0, 0.6].
         aux_state_indices: the entries of `observation.environment_state` the auxiliary heads learn, the
             end effector's x, y, z then the object's (six). None: all six of a 6-D environment state (the
             Fetch datasets); with another state (MetaWorld's 39-D: [0, 1, 2, 4, 5, 6], which
@@ -152,6 +157,7 @@ class VMCConfig(PreTrainedConfig):
     goal_head: bool | None = None
     frame_position_head: bool | None = None
     aux_state_indices: list[int] | None = None
+    gripper_levels: list[float] | None = None
 
     # Training augmentation (4 px of 64, as the usual 84 -> 76 random crops of pixel-based imitation).
     image_shift_pad: int = 4
@@ -213,6 +219,13 @@ class VMCConfig(PreTrainedConfig):
                 f"aux_state_indices must be {AUX_DIM} entries of observation.environment_state (end effector "
                 f"x, y, z, then the object's), got {self.aux_state_indices}."
             )
+        if self.gripper_levels is not None:
+            levels = [float(v) for v in self.gripper_levels]
+            if len(levels) < 2 or levels != sorted(set(levels)) or not all(-1 <= v <= 1 for v in levels):
+                raise ValueError(
+                    f"--policy.gripper_levels must be at least two distinct gripper commands in [-1, 1], "
+                    f"ascending (e.g. [0, 0.6]), got {self.gripper_levels}."
+                )
         if self.optimizer_lr is None:
             self.optimizer_lr = SEQUENCE_LR if self.training_mode == "sequence" else WINDOW_LR
         if not self.optimizer_lr > 0:
@@ -328,6 +341,11 @@ class VMCConfig(PreTrainedConfig):
     def action_dim(self) -> int:
         """D, the size of the action: the continuous command, then the gripper command."""
         return self.output_features[ACTION].shape[0]
+
+    @property
+    def gripper_commands(self) -> tuple[float, ...]:
+        """The gripper command of each gripper class, ascending."""
+        return GRIPPER_COMMANDS if self.gripper_levels is None else tuple(map(float, self.gripper_levels))
 
     @property
     def aux_indices(self) -> tuple[int, ...] | None:

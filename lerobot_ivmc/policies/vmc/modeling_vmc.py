@@ -134,7 +134,7 @@ class VMCPolicy(PreTrainedPolicy):
             outputs, action, aux, frame_positions = self._sequence_outputs(batch)
         else:
             outputs, action, aux, frame_positions = self._window_outputs(batch)
-        losses = supervised_losses(outputs, action, aux)
+        losses = supervised_losses(outputs, action, aux, self.config.gripper_commands)
         if frame_positions is not None:
             losses.update(frame_position_losses(*frame_positions))
         regularization = self.net.head.regularization()
@@ -274,7 +274,7 @@ class VMCPolicy(PreTrainedPolicy):
         self.eval()
         embedding = self.step_embedding(batch)
         delta_ee, logits, _, _ = self.net.decode(embedding, stochastic=False)
-        return deterministic_action(delta_ee, logits)
+        return deterministic_action(delta_ee, logits, self.config.gripper_commands)
 
     @torch.no_grad()
     def predict_action_chunk(self, batch: dict[str, Tensor], **kwargs) -> Tensor:

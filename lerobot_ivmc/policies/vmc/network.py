@@ -17,7 +17,6 @@ from torch import Tensor, nn
 from lerobot_ivmc.hardware import cpu_has_native_bf16
 from lerobot_ivmc.policies.vmc.configuration_vmc import AUX_DIM, GRIPPER_COMMANDS, VMCConfig
 
-NUM_GRIPPER_CLASSES = len(GRIPPER_COMMANDS)
 # One position (x, y, z) of `observation.environment_state`: the end effector's, then the object's.
 POSITION_DIM = AUX_DIM // 2
 # Rollout memory: the LSTM state (h, c), or the last K state representations (`rollout_memory`).
@@ -76,8 +75,9 @@ class VisuomotorNet(nn.Module):
         # a dataset with auxiliary targets (`VMCConfig.aux_indices`).
         self.has_aux = config.aux_indices is not None
         self.command_dim = config.action_dim - 1  # the continuous part of the action (the delta EE)
+        self.gripper_classes = len(config.gripper_commands)
         self.decoder = nn.Linear(
-            head.out_dim, self.command_dim + NUM_GRIPPER_CLASSES + (AUX_DIM if self.has_aux else 0)
+            head.out_dim, self.command_dim + self.gripper_classes + (AUX_DIM if self.has_aux else 0)
         )
         # Object position at the demo's end (`goal_head`): a training target only, never used to act.
         self.goal_decoder = nn.Linear(head.out_dim, POSITION_DIM) if config.goal_head else None
@@ -179,9 +179,9 @@ class VisuomotorNet(nn.Module):
         """
         features = self.head(e, stochastic, noise)
         if not self.has_aux:
-            return (*self.decoder(features).split([self.command_dim, NUM_GRIPPER_CLASSES], -1), None, None)
+            return (*self.decoder(features).split([self.command_dim, self.gripper_classes], -1), None, None)
         outputs = self.decoder(features).split(
-            [self.command_dim, NUM_GRIPPER_CLASSES, POSITION_DIM, POSITION_DIM], dim=-1
+            [self.command_dim, self.gripper_classes, POSITION_DIM, POSITION_DIM], dim=-1
         )
         if not with_goal:
             return outputs
@@ -217,16 +217,22 @@ def random_shift(images: Tensor, pad: int, group: Tensor | None = None) -> Tenso
     return shifted.permute(0, 3, 1, 2)
 
 
-def gripper_commands(class_index: Tensor) -> Tensor:
-    """Map gripper class indices (0, 1, 2) to commands (-1, 0, +1), as float."""
-    return class_index.to(torch.get_default_dtype()) - 1.0
+def gripper_commands(class_index: Tensor, levels: tuple[float, ...] = GRIPPER_COMMANDS) -> Tensor:
+    """Map gripper class indices to their commands (`VMCConfig.gripper_commands`), as float."""
+    return torch.tensor(levels, dtype=torch.get_default_dtype(), device=class_index.device)[class_index]
 
 
-def deterministic_action(delta_ee: Tensor, gripper_logits: Tensor) -> Tensor:
+def deterministic_action(
+    delta_ee: Tensor, gripper_logits: Tensor, levels: tuple[float, ...] = GRIPPER_COMMANDS
+) -> Tensor:
     """The executed action (B, 4) from one decoded pass: delta EE and the most likely gripper command."""
-    return torch.cat([delta_ee, gripper_commands(gripper_logits.argmax(dim=-1))[:, None]], dim=-1)
+    return torch.cat([delta_ee, gripper_commands(gripper_logits.argmax(dim=-1), levels)[:, None]], dim=-1)
 
 
-def gripper_labels(command: Tensor) -> Tensor:
-    """Map gripper commands in [-1, 1] to class indices: round to the nearest of -1, 0, +1, then shift."""
-    return (torch.round(command).clamp(-1, 1) + 1).long()
+def gripper_labels(command: Tensor, levels: tuple[float, ...] = GRIPPER_COMMANDS) -> Tensor:
+    """Map gripper commands to class indices: the nearest level (for the default -1, 0, +1: the command
+    rounded, then shifted)."""
+    if tuple(levels) == GRIPPER_COMMANDS:
+        return (torch.round(command).clamp(-1, 1) + 1).long()
+    distance = (command[..., None] - torch.tensor(levels, dtype=command.dtype, device=command.device)).abs()
+    return distance.argmin(dim=-1)

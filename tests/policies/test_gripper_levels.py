@@ -1,0 +1,59 @@
+"""`--policy.gripper_levels`: the gripper classes a dataset's commands take (MetaWorld's grab effort of 0.6),
+learned as the nearest level and executed as it; the default (-1, 0, +1) as before."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import torch
+from helpers.policies import make_batch, make_config, observation_batch
+from lerobot.utils.constants import ACTION
+
+from lerobot_ivmc.policies import BVMCConfig, VMCConfig
+from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
+from lerobot_ivmc.policies.vmc.modeling_vmc import VMCPolicy
+from lerobot_ivmc.policies.vmc.network import gripper_labels
+
+PUSH_LEVELS = [0.0, 0.6]  # MetaWorld's push-v3 demos: the fingers at rest, then a grab effort of 0.6
+
+
+def test_a_demo_command_is_learned_as_the_class_of_the_nearest_level() -> None:
+    commands = torch.tensor([0.0, 0.6, 0.58, 0.2, 1.0, -1.0])
+    assert gripper_labels(commands, tuple(PUSH_LEVELS)).tolist() == [0, 1, 1, 0, 1, 0]
+    # The default levels round as before: 0.6 is learned (and executed) as +1.
+    assert gripper_labels(commands).tolist() == [1, 2, 2, 1, 2, 0]
+
+
+@pytest.mark.parametrize("cls", [VMCPolicy, BVMCPolicy])
+def test_a_policy_with_gripper_levels_executes_the_demos_effort_and_keeps_its_levels(
+    cls: type[VMCPolicy], tmp_path: Path
+) -> None:
+    torch.manual_seed(0)
+    policy = cls(make_config(cls.config_class, gripper_levels=PUSH_LEVELS))
+    assert policy.net.decoder.out_features == 3 + 2 + 6  # delta EE, two gripper classes, positions
+    batch = make_batch(4)
+    batch[ACTION][:, -1] = 0.6
+    optimizer = torch.optim.Adam(policy.parameters(), lr=1e-2)
+    for _ in range(30):  # learn the demos' one gripper class
+        loss, _ = policy.forward(batch)
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+    policy.eval()
+    policy.reset()
+    action = policy.select_action(observation_batch(2))
+    assert action[:, -1].tolist() == pytest.approx([0.6, 0.6])
+    if cls is BVMCPolicy:
+        policy.reset()
+        sampled = policy.sample(observation_batch(2)).samples[..., -1]  # (B, S) each sample's command
+        assert torch.isclose(sampled[..., None], torch.tensor(PUSH_LEVELS)).any(-1).all()
+    policy.save_pretrained(tmp_path)
+    assert cls.from_pretrained(tmp_path).config.gripper_commands == (0.0, 0.6)
+
+
+@pytest.mark.parametrize("levels", [[0.6], [0.6, 0.0], [0.0, 0.0, 1.0], [0.0, 1.5]])
+def test_gripper_levels_that_are_not_ascending_commands_are_refused(levels: list[float]) -> None:
+    for cls in (VMCConfig, BVMCConfig):
+        with pytest.raises(ValueError, match="--policy.gripper_levels must be at least two distinct"):
+            cls(device="cpu", gripper_levels=levels)
