@@ -478,7 +478,7 @@ def train_stages(
 FROM_THE_DATASET = ("trained_task", "aux_state_indices")
 # Fields added since studies were recorded, left out of the settings at the value that acts as before they
 # existed, so that those studies keep their fingerprints.
-OMITTED_AT = {"image_size": None}
+OMITTED_AT = {"image_size": None, "gripper_levels": None}
 
 
 def resolved_policy_config(policy_type: str, fc: int, given: dict) -> dict:
@@ -573,7 +573,11 @@ def strategy_settings(mode: str | None, task: str | None) -> dict:
     change, which must redo the row. The paper's modes keep the paper's defaults and no settings (so their
     rows keep their fingerprints)."""
     if mode == "retry":
-        return {"retry_steps": RetrySettings().steps}
+        retry = RetrySettings()  # (start_radius only where it acts, so the recorded rows keep theirs)
+        return {
+            "retry_steps": retry.steps,
+            **({"retry_start_radius": retry.start_radius} if retry.start_radius else {}),
+        }
     if mode == "reach":
         return {"reach": asdict(ReachSettings())}
     if mode != "anchor":
