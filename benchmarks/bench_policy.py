@@ -99,7 +99,13 @@ def naive_step(policy: BVMCPolicy, obs: dict[str, torch.Tensor], num_samples: in
         delta_ee, p = policy.sample_head(embedding, 1)
         deltas.append(delta_ee)
         probs.append(p)
-    make_prediction(embedding, torch.cat(deltas, 1), torch.cat(probs, 1), policy.config.uncertainty_lambda)
+    make_prediction(
+        embedding,
+        torch.cat(deltas, 1),
+        torch.cat(probs, 1),
+        policy.config.uncertainty_lambda,
+        policy.config.gripper_commands,
+    )
 
 
 def training_throughput(policy: VMCPolicy, batch_size: int, steps: int, image_size: int) -> float:

@@ -187,7 +187,7 @@ class BVMCPolicy(VMCPolicy):
             noise: optional uniform noise per dropout layer, each (B, S, K_l), to fix the masks.
 
         Returns:
-            (B, S, 3) delta-EE samples and (B, S, 3) gripper probabilities. Without `mc_sampling` the
+            (B, S, 3) delta-EE samples and (B, S, G) gripper class probabilities. Without `mc_sampling` the
             head runs once, deterministically, and its output is repeated S times.
         """
         if self.mc_sampling:

@@ -23,7 +23,7 @@ AUX_DIM = 6
 ROLLOUT_MEMORY_MODES = ("trajectory", "window")
 TRAINING_MODES = ("sequence", "window")
 CHUNK_MEMORY_MODES = ("stored", "zero")
-# Gripper commands close / no-op / open; class index = command + 1.
+# The default gripper classes' commands, close / no-op / open (class index = command + 1).
 GRIPPER_COMMANDS = (-1.0, 0.0, 1.0)
 # Default Adam learning rates per training mode: 6e-4 made the 10,000-step whole-demo schedule place as
 # well as 36,000 window steps at 3e-4 (docs/training_experiments.md, "Sequence training with the carried

@@ -270,7 +270,8 @@ class VMCPolicy(PreTrainedPolicy):
 
     @torch.no_grad()
     def select_action(self, batch: dict[str, Tensor], **kwargs) -> Tensor:
-        """The action to execute, (B, 4), gripper in {-1, 0, +1}; advances the LSTM memory by one step."""
+        """The action to execute, (B, 4), the gripper one of `config.gripper_commands`; advances the LSTM
+        memory by one step."""
         self.eval()
         embedding = self.step_embedding(batch)
         delta_ee, logits, _, _ = self.net.decode(embedding, stochastic=False)

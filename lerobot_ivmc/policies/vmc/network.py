@@ -71,8 +71,8 @@ class VisuomotorNet(nn.Module):
         self.map_size = (height, width)
         self.lstm = nn.LSTMCell((channels + state_dim) * height * width, config.lstm_dim)
         self.head = head
-        # delta EE (3) | gripper logits (3) | EE position (3) | object position (3); the positions only for
-        # a dataset with auxiliary targets (`VMCConfig.aux_indices`).
+        # delta EE (3) | gripper logits (G, one per `VMCConfig.gripper_commands`) | EE position (3) | object
+        # position (3); the positions only for a dataset with auxiliary targets (`VMCConfig.aux_indices`).
         self.has_aux = config.aux_indices is not None
         self.command_dim = config.action_dim - 1  # the continuous part of the action (the delta EE)
         self.gripper_classes = len(config.gripper_commands)
@@ -172,7 +172,7 @@ class VisuomotorNet(nn.Module):
             with_goal: also return the goal head's output (a net built with `goal_head`).
 
         Returns:
-            (..., 3) delta EE, (..., 3) gripper logits, (..., 3) EE and (..., 3) object positions
+            (..., 3) delta EE, (..., G) gripper logits, (..., 3) EE and (..., 3) object positions
             (the positions in the normalised space of `observation.environment_state`; None for a net
             without auxiliary heads), then with `with_goal` (..., 3) the object's predicted position at the
             demo's end.
