@@ -19,10 +19,16 @@ PUSH_LEVELS = [0.0, 0.6]  # MetaWorld's push-v3 demos: the fingers at rest, then
 
 
 def test_a_demo_command_is_learned_as_the_class_of_the_nearest_level() -> None:
+    near = torch.tensor([0.0, 0.6, 0.58, 0.02])
+    assert gripper_labels(near, tuple(PUSH_LEVELS)).tolist() == [0, 1, 1, 0]
     commands = torch.tensor([0.0, 0.6, 0.58, 0.2, 1.0, -1.0])
-    assert gripper_labels(commands, tuple(PUSH_LEVELS)).tolist() == [0, 1, 1, 0, 1, 0]
     # The default levels round as before: 0.6 is learned (and executed) as +1.
     assert gripper_labels(commands).tolist() == [1, 2, 2, 1, 2, 0]
+
+
+def test_a_demo_command_far_from_every_level_is_refused_in_one_line() -> None:
+    with pytest.raises(ValueError, match=r"command of -1 is 1 from the nearest of --policy.gripper_levels"):
+        gripper_labels(torch.tensor([0.0, 0.6, -1.0]), tuple(PUSH_LEVELS))
 
 
 @pytest.mark.parametrize("cls", [VMCPolicy, BVMCPolicy])

@@ -106,7 +106,8 @@ class VMCConfig(PreTrainedConfig):
             used to act; on by default (docs/training_experiments.md, "Sequence training with the carried
             memory"); false is the paper's network.
         gripper_levels: the gripper commands the gripper classes stand for, ascending, at least two: each
-            demo command is learned as the class of the nearest level and a class is executed as its level.
+            demo command is learned as the class of the nearest level (one farther than 0.05 from every level
+            is refused) and a class is executed as its level.
             None: (-1, 0, +1), each demo command rounded to the nearest (the Fetch tasks; MetaWorld's grab
             effort of 0.6 is then executed as 1). MetaWorld's push-v3 and assembly-v3 demos: [0, 0.6].
         aux_state_indices: the entries of `observation.environment_state` the auxiliary heads learn, the

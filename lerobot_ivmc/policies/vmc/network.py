@@ -217,6 +217,10 @@ def random_shift(images: Tensor, pad: int, group: Tensor | None = None) -> Tenso
     return shifted.permute(0, 3, 1, 2)
 
 
+# A demo's gripper command farther than this from every one of `--policy.gripper_levels` is refused.
+LEVEL_TOLERANCE = 0.05
+
+
 def gripper_commands(class_index: Tensor, levels: tuple[float, ...] = GRIPPER_COMMANDS) -> Tensor:
     """Map gripper class indices to their commands (`VMCConfig.gripper_commands`), as float."""
     return torch.tensor(levels, dtype=torch.get_default_dtype(), device=class_index.device)[class_index]
@@ -230,9 +234,16 @@ def deterministic_action(
 
 
 def gripper_labels(command: Tensor, levels: tuple[float, ...] = GRIPPER_COMMANDS) -> Tensor:
-    """Map gripper commands to class indices: the nearest level (for the default -1, 0, +1: the command
-    rounded, then shifted)."""
+    """Map gripper commands to class indices: the nearest level, refused farther than `LEVEL_TOLERANCE` from
+    every level (for the default -1, 0, +1: the command rounded, then shifted, as the studies learned it)."""
     if tuple(levels) == GRIPPER_COMMANDS:
         return (torch.round(command).clamp(-1, 1) + 1).long()
     distance = (command[..., None] - torch.tensor(levels, dtype=command.dtype, device=command.device)).abs()
-    return distance.argmin(dim=-1)
+    nearest, labels = distance.min(dim=-1)
+    if nearest.numel() and float(nearest.max()) > LEVEL_TOLERANCE:
+        far = float(command.flatten()[nearest.flatten().argmax()])
+        raise ValueError(
+            f"A gripper command of {far:g} is {float(nearest.max()):.2g} from the nearest of "
+            f"--policy.gripper_levels={list(levels)}: give the levels the dataset's actions take."
+        )
+    return labels
