@@ -34,7 +34,6 @@ class RecoveryTrigger:
         self.threshold = threshold
         self.window = window
         self.reset_window_after_recovery = reset_window_after_recovery
-        self.step = 0
         self.values = np.zeros((num_rollouts, window))  # circular buffer of the last `window` values
         self.counts = np.zeros(num_rollouts, dtype=np.int64)  # values pushed since the last clear
         self.interval = np.full(num_rollouts, initial_interval, dtype=np.int64)
@@ -72,5 +71,4 @@ class RecoveryTrigger:
         if self.reset_window_after_recovery:
             self.values[fired] = 0.0
             self.counts[fired] = 0
-        self.step += 1
         return fire

@@ -240,10 +240,10 @@ def gripper_labels(command: Tensor, levels: tuple[float, ...] = GRIPPER_COMMANDS
         return (torch.round(command).clamp(-1, 1) + 1).long()
     distance = (command[..., None] - torch.tensor(levels, dtype=command.dtype, device=command.device)).abs()
     nearest, labels = distance.min(dim=-1)
-    if nearest.numel() and float(nearest.max()) > LEVEL_TOLERANCE:
+    if nearest.numel() and (worst := float(nearest.max())) > LEVEL_TOLERANCE:
         far = float(command.flatten()[nearest.flatten().argmax()])
         raise ValueError(
-            f"A gripper command of {far:g} is {float(nearest.max()):.2g} from the nearest of "
+            f"A gripper command of {far:g} is {worst:.2g} from the nearest of "
             f"--policy.gripper_levels={list(levels)}: give the levels the dataset's actions take."
         )
     return labels
