@@ -75,6 +75,18 @@ def paired_outcomes(a: dict, b: dict, milestone: str) -> dict:
     }
 
 
+def pooled_outcomes(pairs: list[dict]) -> dict:
+    """`paired_outcomes` results of several run pairs (e.g. one per training seed) summed, with the exact
+    McNemar p of the summed discordant pairs: each scene stays a matched pair within its own runs."""
+    counts = ("episodes", "both", "only_first", "only_second", "neither")
+    total = {key: sum(pair[key] for pair in pairs) for key in counts}
+    return {
+        "pairs": len(pairs),
+        **total,
+        "mcnemar_exact_p": exact_mcnemar_p(total["only_first"], total["only_second"]),
+    }
+
+
 def rescue_record(bvmc: dict, recovered: dict, milestone: str) -> dict:
     """What a recovery mode did with the failures of the same policy without recovery, scene by scene.
 

@@ -25,7 +25,16 @@ EXECUTORS = ("local", "ray")
 TRAIN_DEVICES = ("auto", "cpu", "cuda")
 # The BVMC rows of Table I: alone and with the paper's three recovery modes, then anchor (beyond the paper).
 DEFAULT_MODES = ("none", "rand", "init", "min_unc", "anchor")
+# Rows that run a recovery mode with flags of their own: anchor's planner fired from the first step the
+# trigger may fire (threshold 0), the control that measures what the introspection's timing adds to anchor.
+CONTROL_ROWS = {"anchor_control": ("anchor", ("--recovery.threshold=0",))}
+STUDY_ROWS = (*RECOVERY_MODES, *CONTROL_ROWS)
 POLICY_TYPES = ("vmc", "bvmc")
+
+
+def row_mode(row: str) -> str:
+    """The recovery mode a BVMC row of `--recovery_modes` runs: its own name, or a control row's mode."""
+    return CONTROL_ROWS[row][0] if row in CONTROL_ROWS else row
 
 
 @dataclass
@@ -211,8 +220,9 @@ class PipelineConfig:
         threshold: threshold picking on validation scenes.
         eval: the Table I evaluations on test scenes (VMC, and BVMC with each of `recovery_modes`).
         recovery_modes: the BVMC rows: "none" (plain BVMC), "rand", "init", "min_unc" (the paper's) and,
-            beyond the paper, "anchor" (a policy trained with the goal head; the Fetch tasks) and "retry"
-            (no task knowledge).
+            beyond the paper, "anchor" (a policy trained with the goal head; the Fetch tasks), "retry" and
+            "reach" (no task knowledge), and "anchor_control" (anchor's planner fired from the first step
+            the trigger may fire: `--recovery.threshold=0`).
         fig3: the Fig. 3 evaluation (BVMC without recovery, many test episodes) and detection metrics.
         regime: the data-budget rule (off unless `--regime.demo_budgets` or `--regime.train_steps` lists
             budgets).
@@ -260,10 +270,11 @@ class PipelineConfig:
             c = self.collect
             c.env.render_style = c.env.render_style or suite.default_render_style
             c.dataset.episode_steps = c.dataset.episode_steps or suite.default_episode_steps
-            if suite.name != "ivmc" and "anchor" in self.recovery_modes:
+            anchor_rows = [row for row in self.recovery_modes if row_mode(row) == "anchor"]
+            if suite.name != "ivmc" and anchor_rows:
                 raise ValueError(
-                    "--recovery_modes=[...,anchor]: anchor is a planner for the Fetch tasks; drop it for "
-                    f"{self.task}."
+                    f"--recovery_modes=[...,{anchor_rows[0]}]: anchor is a planner for the Fetch tasks; drop "
+                    f"it for {self.task}."
                 )
         bad_fc = [n for n in self.train.num_fc_layers if n not in (1, 2)]
         if bad_fc or not self.train.num_fc_layers:
@@ -274,15 +285,14 @@ class PipelineConfig:
             raise ValueError(
                 f"--random_streams must be one of {RANDOM_STREAMS}, got {self.random_streams!r}."
             )
-        bad_modes = [m for m in self.recovery_modes if m not in RECOVERY_MODES]
+        bad_modes = [m for m in self.recovery_modes if m not in STUDY_ROWS]
         if bad_modes or not self.recovery_modes:
+            raise ValueError(f"--recovery_modes must be taken from {STUDY_ROWS}, got {self.recovery_modes}.")
+        anchor_rows = [row for row in self.recovery_modes if row_mode(row) == "anchor"]
+        if anchor_rows and self.train.policy.goal_head is False:
             raise ValueError(
-                f"--recovery_modes must be taken from {RECOVERY_MODES}, got {self.recovery_modes}."
-            )
-        if "anchor" in self.recovery_modes and self.train.policy.goal_head is False:
-            raise ValueError(
-                "--recovery_modes=[...,anchor] reads the policy's goal head: drop "
-                "--train.policy.goal_head=false or the anchor row."
+                f"--recovery_modes=[...,{anchor_rows[0]}] reads the policy's goal head: drop "
+                f"--train.policy.goal_head=false or the {anchor_rows[0]} row."
             )
         if self.perception.max_object_error_cm < 0:
             raise ValueError(

@@ -21,7 +21,7 @@ from lerobot_ivmc.constants import EVAL_INFO_FILE, LAST_PRETRAINED_MODEL, PRETRA
 from lerobot_ivmc.envs import task_env_class
 from lerobot_ivmc.evaluation.perception_check import RECORD_FILE as PERCEPTION_RECORD
 from lerobot_ivmc.hardware import cpu_has_native_bf16
-from lerobot_ivmc.pipeline.config import POLICY_TYPES, PipelineConfig
+from lerobot_ivmc.pipeline.config import CONTROL_ROWS, POLICY_TYPES, PipelineConfig, row_mode
 from lerobot_ivmc.pipeline.stage_names import (
     COLLECT_STAGE,
     chain_folder,
@@ -344,7 +344,7 @@ def row_stages(
     # anchor reads a pushed object, or one held at the end, where the frame position head places it (and the
     # latter's goal too): a policy without that head reads them from the memory's heads instead.
     anchor_flags = []
-    task = task_env_class(cfg.task) if "anchor" in cfg.recovery_modes else None
+    task = task_env_class(cfg.task) if any(row_mode(r) == "anchor" for r in cfg.recovery_modes) else None
     if task is not None and cfg.train.policy.frame_position_head is False:
         if not task.object_picked or task.object_held_at_end:
             anchor_flags.append("--recovery.anchor.object=memory")
@@ -364,7 +364,7 @@ def row_stages(
                 episodes.n_episodes,
                 episodes.batch_size,
                 seed,
-                mode,
+                row_mode(mode) if mode else None,
                 source,
                 recovery_flags=bvmc_row_flags(mode, chain, anchor_flags),
                 task=cfg.task,
@@ -391,12 +391,13 @@ def row_stages(
     return stages
 
 
-def bvmc_row_flags(mode: str | None, chain: ChainFlags, anchor_flags: list[str]) -> list[str]:
-    """The recovery flags of a Table I row: none for VMC's (`mode` None), the chain's for a BVMC row, and
-    `anchor_flags` for anchor's."""
-    if mode is None:
+def bvmc_row_flags(row: str | None, chain: ChainFlags, anchor_flags: list[str]) -> list[str]:
+    """The recovery flags of a Table I row: none for VMC's (`row` None), the chain's for a BVMC row,
+    `anchor_flags` for anchor's rows and a control row's own flags."""
+    if row is None:
         return []
-    return [*chain.bvmc_flags, *(anchor_flags if mode == "anchor" else [])]
+    own = CONTROL_ROWS[row][1] if row in CONTROL_ROWS else ()
+    return [*chain.bvmc_flags, *(anchor_flags if row_mode(row) == "anchor" else []), *own]
 
 
 def detect_stage(

@@ -5,6 +5,11 @@ episodes pair up. For the task (or any milestone) it counts the scenes both solv
 neither solves, and gives the exact McNemar test on the discordant pairs (a two-sided binomial test).
 
     lerobot-ivmc-compare outputs/eval/bvmc outputs/eval/min_unc outputs/eval/rand
+
+With `--pooled` the folders are pairs (baseline, other) of runs, e.g. one pair per training seed: each pair
+is compared, then the counts are summed and tested together.
+
+    lerobot-ivmc-compare --pooled seed1000/none seed1000/retry seed2000/none seed2000/retry
 """
 
 from __future__ import annotations
@@ -12,7 +17,22 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from lerobot_ivmc.evaluation.compare import load_run, paired_outcomes
+from lerobot_ivmc.evaluation.compare import load_run, paired_outcomes, pooled_outcomes
+
+
+def describe(header: str, first: str, second: str, result: dict, milestone: str) -> str:
+    """One line: a pair's (or the pooled pairs') outcome counts and exact McNemar p."""
+    shared = result["episodes"]
+    unpaired = (
+        f" of {result['episodes_first']} and {result['episodes_second']}"
+        if "episodes_first" in result and shared != max(result["episodes_first"], result["episodes_second"])
+        else ""
+    )
+    return (
+        f"{header} ({milestone}, {shared} paired scenes{unpaired}): both {result['both']}, "
+        f"only {first} {result['only_first']}, only {second} {result['only_second']}, neither "
+        f"{result['neither']}; exact McNemar p = {result['mcnemar_exact_p']:.3f}"
+    )
 
 
 def main() -> None:
@@ -22,25 +42,29 @@ def main() -> None:
     parser.add_argument("baseline", type=Path, help="output folder of the reference run")
     parser.add_argument("others", type=Path, nargs="+", help="output folders of the runs to compare with it")
     parser.add_argument("--milestone", help="a subtask name; default: the task's last milestone (success)")
+    parser.add_argument(
+        "--pooled", action="store_true", help="read the folders as (baseline, other) pairs and pool them"
+    )
     args = parser.parse_args()
+    folders = [args.baseline, *args.others]
+    if args.pooled and len(folders) % 2:
+        parser.error(f"--pooled takes (baseline, other) pairs of folders, got {len(folders)} folders.")
+    pairs = (
+        list(zip(folders[::2], folders[1::2], strict=True))
+        if args.pooled
+        else [(args.baseline, other) for other in args.others]
+    )
     try:
-        base = load_run(args.baseline)
+        base = load_run(pairs[0][0])
         milestone = args.milestone or list(base["per_episode"][0]["subtasks"])[-1]
-        for other in args.others:
-            result = paired_outcomes(base, load_run(other), milestone)
-            shared = result["episodes"]
-            unpaired = (
-                f" of {result['episodes_first']} and {result['episodes_second']}"
-                if shared != max(result["episodes_first"], result["episodes_second"])
-                else ""
-            )
-            print(
-                f"{args.baseline.name} vs {other.name} ({milestone}, {shared} paired scenes{unpaired}): "
-                f"both "
-                f"{result['both']}, only {args.baseline.name} {result['only_first']}, only {other.name} "
-                f"{result['only_second']}, neither {result['neither']}; exact McNemar p = "
-                f"{result['mcnemar_exact_p']:.3f}"
-            )
+        results = []
+        for first, second in pairs:
+            results.append(paired_outcomes(load_run(first), load_run(second), milestone))
+            names = (str(first), str(second)) if args.pooled else (first.name, second.name)
+            print(describe(f"{names[0]} vs {names[1]}", *names, results[-1], milestone))
+        if args.pooled:
+            pooled = pooled_outcomes(results)
+            print(describe(f"pooled over {len(pairs)} pairs", "baseline", "other", pooled, milestone))
     except (FileNotFoundError, ValueError, KeyError) as error:
         parser.error(str(error))
 

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from lerobot_ivmc.evaluation.compare import paired_outcomes, rescue_record
+from lerobot_ivmc.evaluation.compare import paired_outcomes, pooled_outcomes, rescue_record
 
 
 def run(flags: list[bool], seeds: list[int] | None = None, task: str = "pick_place", split: str = "test"):
@@ -86,3 +86,35 @@ def test_rescue_counts_the_failures_a_recovery_turned_into_successes() -> None:
         ]
         is None
     )
+
+
+def test_pooled_pairs_sum_their_counts_and_test_the_sums(tmp_path: Path) -> None:
+    """One pair per training seed: each compared on its own scenes, then pooled; an odd count refused."""
+    folders = []
+    for name, outcomes in [
+        ("none_a", [False, False, True]),
+        ("retry_a", [True, False, True]),
+        ("none_b", [False, True, False]),
+        ("retry_b", [True, True, True]),
+    ]:
+        folder = tmp_path / name
+        folder.mkdir()
+        (folder / "eval_info.json").write_text(json.dumps(run(outcomes, seeds=[0, 1, 2])))
+        folders.append(str(folder))
+    pooled = pooled_outcomes(
+        [
+            paired_outcomes(run([False, False, True]), run([True, False, True]), "place"),
+            paired_outcomes(run([False, True, False]), run([True, True, True]), "place"),
+        ]
+    )
+    assert (pooled["pairs"], pooled["episodes"], pooled["only_first"], pooled["only_second"]) == (2, 6, 0, 3)
+    assert pooled["mcnemar_exact_p"] == pytest.approx(0.25)
+    script = [sys.executable, "-m", "lerobot_ivmc.scripts.lerobot_ivmc_compare", "--pooled"]
+    result = subprocess.run([*script, *folders], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert (
+        "pooled over 2 pairs (place, 6 paired scenes): both 2, only baseline 0, only other 3, neither 1"
+        in result.stdout
+    )
+    odd = subprocess.run([*script, *folders[:3]], capture_output=True, text=True, timeout=120)
+    assert odd.returncode == 2 and "--pooled takes (baseline, other) pairs of folders, got 3" in odd.stderr

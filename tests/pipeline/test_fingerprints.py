@@ -54,11 +54,10 @@ def test_studies_begun_earlier_keep_their_stage_fingerprints(monkeypatch: pytest
     found: dict[str, str] = {}
     for stage in build_stages(cfg):
         found[stage.name] = fingerprint(stage, found)
-    # The retry row joined the lite preset after these studies began: a study resumed runs it, and redoes
-    # nothing else.
-    assert "eval_bvmc_fc1_retry" in found.keys() - LITE_PICK_PLACE.keys()
+    # The retry row and anchor's control row joined the lite preset after these studies began: a study
+    # resumed runs them, and redoes nothing else.
     assert {name: found[name] for name in LITE_PICK_PLACE} == LITE_PICK_PLACE
-    assert found.keys() - LITE_PICK_PLACE.keys() == {"eval_bvmc_fc1_retry"}
+    assert found.keys() - LITE_PICK_PLACE.keys() == {"eval_bvmc_fc1_retry", "eval_bvmc_fc1_anchor_control"}
     train = next(stage for stage in build_stages(cfg) if stage.name == "train_bvmc_fc1")
     assert "trained_task" not in train.settings and train.settings["render_style"] == "fast"
 
@@ -81,7 +80,7 @@ def test_a_changed_anchor_default_redoes_the_anchor_rows_only(monkeypatch: pytes
     monkeypatch.setattr(stages_module, "AnchorSettings", functools.partial(AnchorSettings, look_steps=3))
     after = stage_fingerprints(cfg)
     changed = sorted(name for name in before if before[name] != after[name])
-    assert changed == ["eval_bvmc_fc1_anchor", "eval_bvmc_fc2_anchor"]
+    assert changed == [f"eval_bvmc_fc{fc}_{row}" for fc in (1, 2) for row in ("anchor", "anchor_control")]
 
 
 @pytest.mark.parametrize(
@@ -99,7 +98,7 @@ def test_an_anchor_row_reads_the_memory_heads_where_the_policy_lacks_the_frame_h
 ) -> None:
     """anchor reads a pushed object, and pick_reach's stick and goal, from the frame position head by
     default: a study whose policies lack it runs its anchor rows on the memory's heads (and only those rows
-    say so)."""
+    and its control row say so)."""
     monkeypatch.setattr(stages_module, "cpu_has_native_bf16", lambda: True)
     cfg = parse_config(
         [
@@ -111,7 +110,8 @@ def test_an_anchor_row_reads_the_memory_heads_where_the_policy_lacks_the_frame_h
     )
     for stage in build_stages(cfg):
         memory_flags = [arg for arg in stage.argv if arg.endswith("=memory")]
-        assert memory_flags == (flags if stage.name.endswith("_anchor") else []), stage.name
+        anchor_row = stage.name.endswith(("_anchor", "_anchor_control"))
+        assert memory_flags == (flags if anchor_row else []), stage.name
 
 
 def test_episode_streams_redo_the_bvmc_rollouts_only(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -44,6 +44,7 @@ def test_a_metaworld_study_refuses_the_anchor_row_and_the_fetch_demo_lengths_are
         return capsys.readouterr().err.strip().splitlines()[-1]
 
     assert "anchor is a planner for the Fetch tasks" in refusal("--recovery_modes=[none,anchor]")
+    assert "anchor is a planner for the Fetch tasks" in refusal("--recovery_modes=[none,anchor_control]")
     assert "chunk_length" in refusal("--train.policy.chunk_length=400")
     cfg = parse_config(
         [

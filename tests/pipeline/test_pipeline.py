@@ -150,6 +150,7 @@ def test_extra_training_seeds_add_stages_and_leave_the_study_s_own_untouched(tmp
         "eval_bvmc_fc1_init_seed2000",
         "eval_bvmc_fc1_min_unc_seed2000",
         "eval_bvmc_fc1_anchor_seed2000",
+        "eval_bvmc_fc1_anchor_control_seed2000",
         "eval_bvmc_fc1_retry_seed2000",
         "detect_fc1_seed2000",
     ]
@@ -177,6 +178,14 @@ def test_extra_training_seeds_add_stages_and_leave_the_study_s_own_untouched(tmp
     threshold = tmp_path.resolve() / "threshold" / "fc1_seed2000" / "pretrained_model"
     assert f"--policy.path={threshold}" in evaluation.argv
     assert extra["detect_fc1_seed2000"].depends == ["eval_bvmc_fc1_none_seed2000", "threshold_fc1_seed2000"]
+    # anchor's control row: anchor's own command on the same scenes, with the trigger's threshold at 0.
+    anchor, control = extra["eval_bvmc_fc1_anchor_seed2000"], extra["eval_bvmc_fc1_anchor_control_seed2000"]
+    assert "--recovery.mode=anchor" in control.argv and "--recovery.mode=anchor_control" not in control.argv
+    assert set(control.argv) - set(anchor.argv) == {
+        "--recovery.threshold=0",
+        f"--output_dir={tmp_path.resolve()}/eval/bvmc_fc1_anchor_control_seed2000",
+    }
+    assert control.settings == anchor.settings and control.depends == anchor.depends
 
 
 def test_bad_input_is_refused_with_what_to_do(capsys: pytest.CaptureFixture) -> None:
