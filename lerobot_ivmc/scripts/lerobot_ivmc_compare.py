@@ -31,7 +31,7 @@ def describe(header: str, first: str, second: str, result: dict, milestone: str)
     return (
         f"{header} ({milestone}, {shared} paired scenes{unpaired}): both {result['both']}, "
         f"only {first} {result['only_first']}, only {second} {result['only_second']}, neither "
-        f"{result['neither']}; exact McNemar p = {result['mcnemar_exact_p']:.3f}"
+        f"{result['neither']}; exact McNemar p = {result['mcnemar_exact_p']:.2g}"
     )
 
 
