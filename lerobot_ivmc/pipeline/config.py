@@ -273,8 +273,8 @@ class PipelineConfig:
             anchor_rows = [row for row in self.recovery_modes if row_mode(row) == "anchor"]
             if suite.name != "ivmc" and anchor_rows:
                 raise ValueError(
-                    f"--recovery_modes=[...,{anchor_rows[0]}]: anchor is a planner for the Fetch tasks; drop "
-                    f"it for {self.task}."
+                    f"--recovery_modes: {', '.join(anchor_rows)}: anchor is a planner for the Fetch tasks; "
+                    f"drop them for {self.task}."
                 )
         bad_fc = [n for n in self.train.num_fc_layers if n not in (1, 2)]
         if bad_fc or not self.train.num_fc_layers:
@@ -291,8 +291,8 @@ class PipelineConfig:
         anchor_rows = [row for row in self.recovery_modes if row_mode(row) == "anchor"]
         if anchor_rows and self.train.policy.goal_head is False:
             raise ValueError(
-                f"--recovery_modes=[...,{anchor_rows[0]}] reads the policy's goal head: drop "
-                f"--train.policy.goal_head=false or the {anchor_rows[0]} row."
+                f"--recovery_modes: {', '.join(anchor_rows)} read the policy's goal head: drop "
+                f"--train.policy.goal_head=false or the rows {anchor_rows}."
             )
         if self.perception.max_object_error_cm < 0:
             raise ValueError(

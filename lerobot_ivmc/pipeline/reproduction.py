@@ -16,6 +16,7 @@ from pathlib import Path
 
 from lerobot_ivmc.envs import TASKS
 from lerobot_ivmc.evaluation.success_by_uncertainty import most_negative_rho
+from lerobot_ivmc.pipeline.config import CONTROL_ROWS
 from lerobot_ivmc.pipeline.results import finite
 from lerobot_ivmc.pipeline.seed_pool import summed_rescue
 from lerobot_ivmc.pipeline.tables import rescue_cells
@@ -174,9 +175,9 @@ RESCUE_GOAL = 0.5
 RESCUE_P = 0.05
 
 
-def rescue_goal_met(rate: float | None, p: float) -> bool | None:
-    """The rescue goal's verdict (None: no failures to rescue)."""
-    return None if rate is None else rate >= RESCUE_GOAL and p < RESCUE_P
+def rescue_goal_met(rate: float | None, p: float, method: str = "") -> bool | None:
+    """The rescue goal's verdict (None: no failures to rescue, or a control row, which no goal is set for)."""
+    return None if rate is None or method in CONTROL_ROWS else rate >= RESCUE_GOAL and p < RESCUE_P
 
 
 def rescue_lines(results: dict) -> list[dict]:
@@ -212,7 +213,7 @@ def rescue_lines(results: dict) -> list[dict]:
                 "lost": record["lost"],
                 "rescue_rate": rate,
                 "p": record["p"],
-                "goal_met": rescue_goal_met(rate, record["p"]),
+                "goal_met": rescue_goal_met(rate, record["p"], record["method"]),
             }
         )
     return lines
@@ -237,7 +238,7 @@ def pooled_over_tasks(lines: list[dict]) -> list[dict]:
                 "train_seeds": sorted({seed for line in group for seed in line["train_seeds"]}),
                 **summed,
                 "p": p,
-                "goal_met": rescue_goal_met(summed["rescue_rate"], p),
+                "goal_met": rescue_goal_met(summed["rescue_rate"], p, key[1]),
             }
         )
     return pooled

@@ -10,7 +10,7 @@ METHOD_LABELS = {
     "init": "BVMC + init",
     "min_unc": "BVMC + min unc",
     "anchor": "BVMC + anchor (beyond the paper)",
-    "anchor_control": "anchor's planner fired from the first step it may (the control: threshold 0)",
+    "anchor_control": "BVMC + anchor at threshold 0 (anchor's control: fired from the first step it may)",
     "retry": "BVMC + retry (beyond the paper, no task knowledge)",
     "reach": "BVMC + reach (beyond the paper, no task knowledge)",
 }

@@ -49,17 +49,22 @@ def main() -> None:
     folders = [args.baseline, *args.others]
     if args.pooled and len(folders) % 2:
         parser.error(f"--pooled takes (baseline, other) pairs of folders, got {len(folders)} folders.")
+    repeated = [folder for folder in dict.fromkeys(folders) if folders.count(folder) > 1]
+    if args.pooled and repeated:
+        parser.error(
+            f"--pooled takes one (baseline, other) pair per training seed: {repeated[0]} appears twice."
+        )
     pairs = (
         list(zip(folders[::2], folders[1::2], strict=True))
         if args.pooled
         else [(args.baseline, other) for other in args.others]
     )
     try:
-        base = load_run(pairs[0][0])
-        milestone = args.milestone or list(base["per_episode"][0]["subtasks"])[-1]
+        runs = {folder: load_run(folder) for folder in folders}
+        milestone = args.milestone or list(runs[args.baseline]["per_episode"][0]["subtasks"])[-1]
         results = []
         for first, second in pairs:
-            results.append(paired_outcomes(load_run(first), load_run(second), milestone))
+            results.append(paired_outcomes(runs[first], runs[second], milestone))
             names = (str(first), str(second)) if args.pooled else (first.name, second.name)
             print(describe(f"{names[0]} vs {names[1]}", *names, results[-1], milestone))
         if args.pooled:

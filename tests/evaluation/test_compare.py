@@ -118,3 +118,7 @@ def test_pooled_pairs_sum_their_counts_and_test_the_sums(tmp_path: Path) -> None
     )
     odd = subprocess.run([*script, *folders[:3]], capture_output=True, text=True, timeout=120)
     assert odd.returncode == 2 and "--pooled takes (baseline, other) pairs of folders, got 3" in odd.stderr
+    # One baseline against two modes is two comparisons, not a pool.
+    command = [*script, *folders[:2], folders[0], folders[3]]
+    twice = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    assert twice.returncode == 2 and f"{folders[0]} appears twice" in twice.stderr

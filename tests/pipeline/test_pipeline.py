@@ -219,6 +219,8 @@ def test_bad_input_is_refused_with_what_to_do(capsys: pytest.CaptureFixture) -> 
         "--task=push", "--preset=smoke", "--train.extra_seeds=[7]", "--recovery_modes=[min_unc]"
     )
     assert "needs 'none' in --recovery_modes" in no_plain_bvmc
+    no_goal_head = refusal("--task=push", "--preset=lite", "--train.policy.goal_head=false")
+    assert "the rows ['anchor', 'anchor_control']" in no_goal_head
     # Values a late stage would refuse are refused before the study starts (not hours in).
     for override, message in (
         ("--threshold.method=conformall", "--threshold.method must be one of ('argmax', 'conformal')"),

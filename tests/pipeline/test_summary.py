@@ -269,3 +269,23 @@ def test_a_mode_measured_on_several_tasks_is_pooled_over_them(tmp_path: Path) ->
     ]
     assert pooled[0]["rescue_rate"] == 20 / 50 and pooled[0]["p"] < 1e-4
     assert "| all tasks | 1 | min_unc | 1000 | 50 (45) | 21 / 1 | 40% |" in markdown_path.read_text()
+
+
+def test_anchor_s_control_row_is_reported_without_a_goal_verdict(tmp_path: Path) -> None:
+    """The control row (anchor's planner at threshold 0) measures the introspection's timing: its rescue is
+    listed, with no goal of its own."""
+    results = study("pick_place", {1: {"vmc": 53.0, "none": 71.0}}, True, 9000, -0.86)
+    control = row("pick_place", 1, "none", {"reach": 100.0, "place": 91.0})
+    control["method"] = "anchor_control"
+    control["rescue"] = {"failures": 29, "flagged": 29, "rescued": 27, "lost": 7, "rescue_rate": 20 / 29}
+    control["rescue"]["mcnemar_exact_p"] = 0.0008
+    results["rows"].append(control)
+    (tmp_path / "pick_place.json").write_text(json.dumps(results))
+    markdown_path, json_path = write_summary(SummaryConfig(results_dir=tmp_path))
+    (line,) = json.loads(json_path.read_text())["rescue"]
+    assert (line["method"], line["rescued"], line["lost"], line["goal_met"]) == (
+        "anchor_control",
+        27,
+        7,
+        None,
+    )
