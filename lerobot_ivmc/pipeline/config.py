@@ -259,6 +259,11 @@ class PipelineConfig:
     def __post_init__(self) -> None:
         self.validate()
 
+    @property
+    def anchor_rows(self) -> list[str]:
+        """The rows of `recovery_modes` that run anchor (anchor and its control row)."""
+        return [row for row in self.recovery_modes if row_mode(row) == "anchor"]
+
     def validate(self) -> None:
         """Refuse values no stage could run, with what to pass instead."""
         if self.task:
@@ -270,11 +275,10 @@ class PipelineConfig:
             c = self.collect
             c.env.render_style = c.env.render_style or suite.default_render_style
             c.dataset.episode_steps = c.dataset.episode_steps or suite.default_episode_steps
-            anchor_rows = [row for row in self.recovery_modes if row_mode(row) == "anchor"]
-            if suite.name != "ivmc" and anchor_rows:
+            if suite.name != "ivmc" and self.anchor_rows:
                 raise ValueError(
-                    f"--recovery_modes: {', '.join(anchor_rows)}: anchor is a planner for the Fetch tasks; "
-                    f"drop them for {self.task}."
+                    f"--recovery_modes: {', '.join(self.anchor_rows)}: anchor is a planner for the Fetch "
+                    f"tasks; drop them for {self.task}."
                 )
         bad_fc = [n for n in self.train.num_fc_layers if n not in (1, 2)]
         if bad_fc or not self.train.num_fc_layers:
@@ -288,11 +292,10 @@ class PipelineConfig:
         bad_modes = [m for m in self.recovery_modes if m not in STUDY_ROWS]
         if bad_modes or not self.recovery_modes:
             raise ValueError(f"--recovery_modes must be taken from {STUDY_ROWS}, got {self.recovery_modes}.")
-        anchor_rows = [row for row in self.recovery_modes if row_mode(row) == "anchor"]
-        if anchor_rows and self.train.policy.goal_head is False:
+        if self.anchor_rows and self.train.policy.goal_head is False:
             raise ValueError(
-                f"--recovery_modes: {', '.join(anchor_rows)} read the policy's goal head: drop "
-                f"--train.policy.goal_head=false or the rows {anchor_rows}."
+                f"--recovery_modes: {', '.join(self.anchor_rows)} read the policy's goal head: drop "
+                f"--train.policy.goal_head=false or the rows {self.anchor_rows}."
             )
         if self.perception.max_object_error_cm < 0:
             raise ValueError(

@@ -344,7 +344,7 @@ def row_stages(
     # anchor reads a pushed object, or one held at the end, where the frame position head places it (and the
     # latter's goal too): a policy without that head reads them from the memory's heads instead.
     anchor_flags = []
-    task = task_env_class(cfg.task) if any(row_mode(r) == "anchor" for r in cfg.recovery_modes) else None
+    task = task_env_class(cfg.task) if cfg.anchor_rows else None
     if task is not None and cfg.train.policy.frame_position_head is False:
         if not task.object_picked or task.object_held_at_end:
             anchor_flags.append("--recovery.anchor.object=memory")
