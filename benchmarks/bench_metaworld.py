@@ -1,24 +1,30 @@
-"""MetaWorld: env steps/s of the plugin's `meta_world` env (64-px "flat" camera) against LeRobot 0.4.4's own
-`MetaworldEnv` (480 x 480 frames) and against physics only; the scripted policies' success rate with the
-demos' noise; and `lerobot-ivmc-collect`'s demos per minute. Every ratio is measured in this one run.
+"""MetaWorld: env steps/s of the plugin's `meta_world` env (64-px camera, "flat" and "lean" render styles)
+against LeRobot 0.4.4's own `MetaworldEnv` (480 x 480 frames) and against physics only, each env in its own
+process; the scripted policies' success rate with the demos' noise; and `lerobot-ivmc-collect`'s demos per
+minute. Every ratio is measured in this one run.
 
 python benchmarks/bench_metaworld.py                      # 10 scripted episodes per task, 20 demos
 python benchmarks/bench_metaworld.py --episodes 50 --demos 50
 python benchmarks/bench_metaworld.py --scripted_only --episodes 50 --noise 0 --demo_steps 150 200
+python benchmarks/bench_metaworld.py --env_only --steps 500
 """
 
 import argparse
+import multiprocessing
+import os
 import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
-from lerobot.envs.metaworld import MetaworldEnv
+os.environ.setdefault("MUJOCO_GL", "egl")  # before LeRobot's env imports mujoco
 
-from lerobot_ivmc.datasets.collect import collect_demos
-from lerobot_ivmc.datasets.collect_config import CollectConfig
-from lerobot_ivmc.datasets.expert_attempts import ActionNoise
-from lerobot_ivmc.envs.metaworld.env import SeededMetaworldEnv
+import numpy as np  # noqa: E402
+from lerobot.envs.metaworld import MetaworldEnv  # noqa: E402
+
+from lerobot_ivmc.datasets.collect import collect_demos  # noqa: E402
+from lerobot_ivmc.datasets.collect_config import CollectConfig  # noqa: E402
+from lerobot_ivmc.datasets.expert_attempts import ActionNoise  # noqa: E402
+from lerobot_ivmc.envs.metaworld.env import SeededMetaworldEnv  # noqa: E402
 
 TASKS = ("pick-place-v3", "push-v3", "drawer-open-v3", "peg-insert-side-v3")
 NOISE = 0.1  # the metaworld preset's demo noise
@@ -33,20 +39,32 @@ def rate(step, n_steps: int) -> float:
     return n_steps / (time.perf_counter() - start)
 
 
+def env_rate(kind: str, task: str, n_steps: int) -> float:
+    """Steps/s of one env kind; run alone in its process (`step_rates`)."""
+    if kind == "lerobot":
+        env = MetaworldEnv(task=task, obs_type="pixels_agent_pos")
+        env.reset(seed=0)
+        return rate(env.step, n_steps)
+    style = "flat" if kind == "physics" else kind
+    env = SeededMetaworldEnv(task, terminate_on_success=False, render_style=style)
+    env.reset(seed=0)
+    return rate(env.raw_env.step if kind == "physics" else env.step, n_steps)
+
+
 def step_rates(task: str, n_steps: int) -> dict[str, float]:
-    plugin = SeededMetaworldEnv(task, terminate_on_success=False)
-    plugin.reset(seed=0)
-    lerobot = MetaworldEnv(task=task, obs_type="pixels_agent_pos")
-    lerobot.reset(seed=0)
-    physics = rate(lambda a: plugin.raw_env.step(a), n_steps)
-    plugin.reset(seed=0)  # MetaWorld refuses steps past its 500-step episodes
-    rates = {
-        "physics only": physics,
-        "meta_world, 64-px flat camera": rate(plugin.step, n_steps),
-        "LeRobot's MetaworldEnv (480 px)": rate(lerobot.step, n_steps // 5),
+    """Each env in a fresh process: gymnasium's renderer (LeRobot's env) makes its GL context current
+    only once, so it draws nothing once another renderer in the process has made its own current."""
+    kinds = {
+        "physics only": ("physics", n_steps),
+        "meta_world, 64-px flat camera": ("flat", n_steps),
+        "meta_world, 64-px lean camera": ("lean", n_steps),
+        "LeRobot's MetaworldEnv (480 px)": ("lerobot", n_steps // 5),
     }
-    plugin.close()
-    lerobot.close()
+    rates = {}
+    context = multiprocessing.get_context("spawn")
+    for name, (kind, steps) in kinds.items():
+        with context.Pool(1) as pool:
+            rates[name] = pool.apply(env_rate, (kind, task, steps))
     return rates
 
 
@@ -80,12 +98,15 @@ def main() -> None:
     parser.add_argument("--demo_steps", type=int, nargs="+", default=[150], help="demo lengths to score")
     parser.add_argument("--tasks", nargs="+", default=list(TASKS), help="tasks of the scripted runs")
     parser.add_argument("--scripted_only", action="store_true", help="only the scripted policies' success")
+    parser.add_argument("--env_only", action="store_true", help="only the env step rates")
     args = parser.parse_args()
     if not 5 <= args.steps <= 500 or not all(1 <= n <= 500 for n in args.demo_steps):
         parser.error("--steps and --demo_steps must be in [5, 500]: MetaWorld's episodes end at 500 steps.")
 
     if not args.scripted_only:
         env_rates(args.steps)
+    if args.env_only:
+        return
     lengths = "/".join(map(str, args.demo_steps))
     print(
         f"scripted policies, N(0, {args.noise}) xyz noise, {lengths}-step demos, {args.episodes} scenes each:"
@@ -107,9 +128,10 @@ def env_rates(n_steps: int) -> None:
     for name, value in rates.items():
         print(f"  {name:<34}: {value:8.1f}")
     lerobot = rates["LeRobot's MetaworldEnv (480 px)"]
-    ours = rates["meta_world, 64-px flat camera"]
-    print(f"  meta_world / LeRobot's MetaworldEnv: {ours / lerobot:5.1f}x")
-    print(f"  meta_world / physics only:           {ours / rates['physics only']:5.2f}x")
+    for style in ("flat", "lean"):
+        ours = rates[f"meta_world, 64-px {style} camera"]
+        print(f"  meta_world {style} / LeRobot's MetaworldEnv: {ours / lerobot:5.1f}x")
+        print(f"  meta_world {style} / physics only:           {ours / rates['physics only']:5.2f}x")
 
 
 def collection_rates(demos: int) -> None:

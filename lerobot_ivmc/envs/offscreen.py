@@ -7,6 +7,7 @@ import os
 import mujoco
 import numpy as np
 
+from lerobot_ivmc.envs.coarse_meshes import coarse_meshes
 from lerobot_ivmc.envs.render_styles import RENDER_STYLES
 
 
@@ -21,7 +22,8 @@ def make_styled_renderer(model: mujoco.MjModel, size: int, render_style: str) ->
     model.vis.global_.offwidth = model.vis.global_.offheight = size
     model.vis.quality.offsamples = style.multisamples
     try:
-        renderer = mujoco.Renderer(model, size, size)
+        with coarse_meshes(model, style.mesh_cell):
+            renderer = mujoco.Renderer(model, size, size)
     except mujoco.FatalError as error:
         raise RuntimeError(
             "MuJoCo could not create an offscreen renderer "

@@ -18,11 +18,14 @@ class RenderStyle:
         multisamples: MSAA samples per pixel (`vis.quality.offsamples`; 0 = none).
         shadows: cast shadows from the lights (`mjRND_SHADOW`).
         reflections: mirror the scene in reflective surfaces (`mjRND_REFLECTION`).
+        mesh_cell: draw meshes with their vertices clustered to cells of this side, metres
+            (`coarse_meshes.py`; 0 = the model's meshes).
     """
 
     multisamples: int
     shadows: bool
     reflections: bool
+    mesh_cell: float = 0.0
 
 
 # "fetch": the look of the Fetch XML (4x MSAA, shadows, reflections), that of every dataset and checkpoint
@@ -30,10 +33,13 @@ class RenderStyle:
 # (benchmarks/bench_env.py); shadows and reflections are kept, since they cost little and the shadow under
 # a lifted cube is the camera's cue of its height. "flat": also without shadows and reflections, the
 # MetaWorld suite's default (its scenes' shadows and mirror-like floor cost most of a 64-px frame there).
+# "lean": flat with the meshes clustered to 1 cm, under a pixel of a 64-px MetaWorld frame at the table;
+# on a software renderer the Sawyer's mesh triangles are most of what remains of a flat frame's cost.
 RENDER_STYLES = {
     "fetch": RenderStyle(multisamples=4, shadows=True, reflections=True),
     "fast": RenderStyle(multisamples=0, shadows=True, reflections=True),
     "flat": RenderStyle(multisamples=0, shadows=False, reflections=False),
+    "lean": RenderStyle(multisamples=0, shadows=False, reflections=False, mesh_cell=0.01),
 }
 DEFAULT_RENDER_STYLE = "fast"
 # What datasets and checkpoints that do not record a render style were made with.

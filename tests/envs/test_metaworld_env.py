@@ -63,6 +63,24 @@ def test_the_camera_is_drawn_at_the_image_size_and_the_state_is_metaworlds(env: 
     assert info == {"is_success": False, "subtasks": {"success": False}, "scene_seed": 0}
 
 
+def test_the_lean_style_draws_nearly_the_flat_frames_and_leaves_the_physics_alone() -> None:
+    """ "lean" draws the Sawyer's meshes coarser (a fraction of the triangles) in the same scene."""
+    frames, states = {}, {}
+    for style in ("flat", "lean"):
+        env = SeededMetaworldEnv(TASK, render_style=style, terminate_on_success=False)
+        observation, _ = env.reset(seed=4)
+        frames[style], states[style] = [observation["pixels"]], [observation["environment_state"]]
+        for _ in range(20):
+            action = np.clip(env.expert_policy.get_action(observation["environment_state"]), -1, 1)
+            observation, *_ = env.step(action)
+            frames[style].append(observation["pixels"])
+            states[style].append(observation["environment_state"])
+        env.close()
+    np.testing.assert_array_equal(np.stack(states["flat"]), np.stack(states["lean"]))
+    difference = np.abs(np.stack(frames["flat"]).astype(int) - np.stack(frames["lean"]))
+    assert 0 < difference.mean() < 2  # grey levels: edges of the arm move by about a pixel
+
+
 def test_the_scripted_policy_succeeds_and_success_ends_the_episode() -> None:
     env = SeededMetaworldEnv(TASK, split="train")
     observation, _ = env.reset(seed=1)

@@ -66,9 +66,9 @@ def test_the_style_survives_pickling_for_async_vector_envs():
 
 
 def test_an_unknown_style_is_refused_naming_the_styles():
-    styles = r"\('fetch', 'fast', 'flat'\)"
+    styles = r"\('fetch', 'fast', 'flat', 'lean'\)"
     with pytest.raises(ValueError, match=rf"Unknown render_style 'pretty'; choose one of {styles}"):
         make_task_env("push", render_style="pretty")
     with pytest.raises(ValueError, match=r"env.render_style 'pretty'"):
         IvmcEnv(task="push", render_style="pretty")
-    assert set(RENDER_STYLES) == {"fetch", "fast", "flat"}
+    assert set(RENDER_STYLES) == {"fetch", "fast", "flat", "lean"}
