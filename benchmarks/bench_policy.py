@@ -104,7 +104,7 @@ def naive_step(policy: BVMCPolicy, obs: dict[str, torch.Tensor], num_samples: in
         torch.cat(deltas, 1),
         torch.cat(probs, 1),
         policy.config.uncertainty_lambda,
-        policy.config.gripper_commands,
+        policy.config.gripper,
     )
 
 

@@ -22,7 +22,7 @@ from lerobot.envs.utils import preprocess_observation
 from diagnostics.checkpoint import InspectedPolicy
 from lerobot_ivmc.envs import MAX_EPISODE_STEPS, TASKS, make_task_env
 from lerobot_ivmc.envs.scenes import SPLITS
-from lerobot_ivmc.policies.vmc.network import deterministic_action
+from lerobot_ivmc.policies.vmc.gripper import deterministic_action
 
 BUCKET = 25
 
@@ -56,7 +56,7 @@ def rollout_errors(
         batch = inspected.preprocessor(preprocess_observation(batched))
         with torch.no_grad():
             delta_ee, logits, ee, obj = policy.net.decode(policy.step_embedding(batch), stochastic=False)
-        actions = deterministic_action(delta_ee, logits, policy.config.gripper_commands).numpy()
+        actions = deterministic_action(delta_ee, logits, policy.config.gripper).numpy()
         for i, env in enumerate(envs):
             predicted = inspected.auxiliary_positions(ee[i : i + 1], obj[i : i + 1])
             errors[i, t, 0] = np.linalg.norm(predicted[:3] - env.grip_position) * 100

@@ -19,7 +19,7 @@ from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
 
 from diagnostics.checkpoint import InspectedPolicy
 from lerobot_ivmc.datasets.features import IMAGE_KEY
-from lerobot_ivmc.policies.vmc.network import gripper_labels
+from lerobot_ivmc.policies.vmc.gripper import LEVEL_TOLERANCE
 
 
 def main() -> None:
@@ -50,8 +50,10 @@ def main() -> None:
                 delta_ee, logits, ee, obj = policy.net.decode(embedding, stochastic=False)
             expert = item[ACTION].numpy()
             delta_errors.append(np.abs(delta_ee[0].numpy() - expert[:3]))
-            expert_class = gripper_labels(torch.as_tensor(expert[3:]), policy.config.gripper_commands)[0]
-            gripper_hits.append(int(logits[0].argmax()) == int(expert_class))
+            # The command the head learned for the expert's, within the level tolerance (classes: the class).
+            gripper = policy.config.gripper
+            learned = float(gripper.learned(torch.as_tensor(expert[3:]))[0])
+            gripper_hits.append(abs(float(gripper.command(logits)[0]) - learned) <= LEVEL_TOLERANCE)
             predicted_aux = inspected.auxiliary_positions(ee, obj)
             aux_errors.append(np.abs(predicted_aux - item[OBS_ENV_STATE].numpy()))
     delta_errors, aux_errors = np.array(delta_errors), np.array(aux_errors) * 100

@@ -19,7 +19,7 @@ from diagnostics.checkpoint import InspectedPolicy
 from lerobot_ivmc.envs import TASKS, make_task_env
 from lerobot_ivmc.envs.scenes import SPLITS
 from lerobot_ivmc.experts import make_expert
-from lerobot_ivmc.policies.vmc.network import deterministic_action
+from lerobot_ivmc.policies.vmc.gripper import deterministic_action
 
 
 def main() -> None:
@@ -53,7 +53,7 @@ def main() -> None:
         batch = inspected.preprocessor(preprocess_observation(batched))
         with torch.no_grad():
             delta_ee, logits, ee, obj = policy.net.decode(policy.step_embedding(batch), stochastic=False)
-        action = deterministic_action(delta_ee, logits, policy.config.gripper_commands)[0].numpy()
+        action = deterministic_action(delta_ee, logits, policy.config.gripper)[0].numpy()
         predicted = inspected.auxiliary_positions(ee, obj)
         expert_action = expert.act()
         if t % args.every == 0:

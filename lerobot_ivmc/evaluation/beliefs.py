@@ -17,7 +17,7 @@ from lerobot_ivmc.envs.configuration_ivmc import IvmcEnv
 from lerobot_ivmc.evaluation.feature_stats import env_state_stats
 from lerobot_ivmc.evaluation.loading import LoadedPolicy
 from lerobot_ivmc.evaluation.plugin_envs import check_plugin_env
-from lerobot_ivmc.policies.vmc.network import deterministic_action
+from lerobot_ivmc.policies.vmc.gripper import deterministic_action
 from lerobot_ivmc.recovery.foresight_ranking import batch_observations
 
 GRIP, OBJECT = slice(0, 3), slice(3, 6)
@@ -94,7 +94,7 @@ class BeliefReader:
         if sampled:
             action = prediction.mean_action[0]
         else:
-            action = deterministic_action(outputs[0], outputs[1], self.policy.config.gripper_commands)[0]
+            action = deterministic_action(outputs[0], outputs[1], self.policy.config.gripper)[0]
         beliefs = {"grip": self.to_world(outputs[2], GRIP), "object": self.to_world(outputs[3], OBJECT)}
         if self.with_goal:
             beliefs["goal"] = self.to_world(outputs[4], OBJECT)

@@ -479,7 +479,7 @@ def train_stages(
 FROM_THE_DATASET = ("trained_task", "aux_state_indices")
 # Fields added since studies were recorded, left out of the settings at the value that acts as before they
 # existed, so that those studies keep their fingerprints.
-OMITTED_AT = {"image_size": None, "gripper_levels": None}
+OMITTED_AT = {"image_size": None, "gripper_levels": None, "gripper_head": "classes"}
 
 
 def resolved_policy_config(policy_type: str, fc: int, given: dict) -> dict:

@@ -128,7 +128,7 @@ def test_mc_samples_vary_while_vmc_does_not() -> None:
     bvmc.eval()  # sampling is switched by `mc_sampling`, not by the train/eval mode
     pred = bvmc.sample(obs)
     assert pred.delta_ee_samples.shape == (2, 50, 3) and pred.samples.shape == (2, 50, 4)
-    assert pred.gripper_probs.shape == (2, 50, 3) and pred.embedding.shape == (2, bvmc.config.lstm_dim)
+    assert pred.gripper_values.shape == (2, 50, 3) and pred.embedding.shape == (2, bvmc.config.lstm_dim)
     assert (pred.delta_ee_samples.std(dim=1) > 1e-4).all()
     assert (pred.uncertainty > 0).all()
     torch.testing.assert_close(pred.mean_action[:, :3], pred.delta_ee_samples.mean(dim=1))
@@ -169,7 +169,7 @@ def test_batched_head_equals_separate_full_passes_with_the_same_masks(num_fc_lay
         deltas.append(d)
         probs.append(p)
     torch.testing.assert_close(batched.delta_ee_samples, torch.cat(deltas, dim=1))
-    torch.testing.assert_close(batched.gripper_probs, torch.cat(probs, dim=1))
+    torch.testing.assert_close(batched.gripper_values, torch.cat(probs, dim=1))
     torch.testing.assert_close(policy.get_memory(), memory_after)
 
 

@@ -17,9 +17,8 @@ from lerobot_ivmc.policies.bvmc.configuration_bvmc import DEFAULT_DATASET_SIZE, 
 from lerobot_ivmc.policies.bvmc.foresight import UncertaintyForesight, from_log_uncertainty
 from lerobot_ivmc.policies.bvmc.threshold_record import ThresholdRecord
 from lerobot_ivmc.policies.bvmc.uncertainty import trace_cov_uncertainty
-from lerobot_ivmc.policies.vmc.configuration_vmc import GRIPPER_COMMANDS
+from lerobot_ivmc.policies.vmc.gripper import DEFAULT_GRIPPER, GripperReadout
 from lerobot_ivmc.policies.vmc.modeling_vmc import HUB_KWARGS, VMCPolicy
-from lerobot_ivmc.policies.vmc.network import gripper_commands
 
 logger = logging.getLogger(__name__)
 
@@ -30,25 +29,26 @@ class MCPrediction:
 
     Attributes:
         mean_action: (B, 4) action to execute: mean delta EE, and the gripper command of the class with
-            the highest mean probability.
+            the highest mean probability (a continuous gripper: the mean command).
         uncertainty: (B,) trace of the covariance of the transformed delta-EE samples, Eq. (unc-tr-cov).
         embedding: (B, lstm_dim) LSTM embedding e_t.
         delta_ee_samples: (B, S, 3) sampled delta end-effector commands.
-        gripper_probs: (B, S, G) gripper class probabilities per sample (G = 3: close, no-op, open).
-        gripper_levels: the gripper classes' commands (`VMCConfig.gripper_commands`).
+        gripper_values: per sample, (B, S, G) gripper class probabilities (G = 3: close, no-op, open), or
+            (B, S, 1) commands of a continuous gripper.
+        gripper: what `gripper_values` mean (`VMCConfig.gripper`).
     """
 
     mean_action: Tensor
     uncertainty: Tensor
     embedding: Tensor
     delta_ee_samples: Tensor
-    gripper_probs: Tensor
-    gripper_levels: tuple[float, ...] = GRIPPER_COMMANDS
+    gripper_values: Tensor
+    gripper: GripperReadout = DEFAULT_GRIPPER
 
     @property
     def samples(self) -> Tensor:
-        """(B, S, 4) sampled actions: delta EE and each sample's most likely gripper command."""
-        gripper = gripper_commands(self.gripper_probs.argmax(dim=-1), self.gripper_levels)[..., None]
+        """(B, S, 4) sampled actions: delta EE and each sample's gripper command."""
+        gripper = self.gripper.sample_commands(self.gripper_values)[..., None]
         return torch.cat([self.delta_ee_samples, gripper], dim=-1)
 
 
@@ -187,16 +187,17 @@ class BVMCPolicy(VMCPolicy):
             noise: optional uniform noise per dropout layer, each (B, S, K_l), to fix the masks.
 
         Returns:
-            (B, S, 3) delta-EE samples and (B, S, G) gripper class probabilities. Without `mc_sampling` the
-            head runs once, deterministically, and its output is repeated S times.
+            (B, S, 3) delta-EE samples and the (B, S, G) gripper values (`MCPrediction.gripper_values`).
+            Without `mc_sampling` the head runs once, deterministically, and its output is repeated S times.
         """
         if self.mc_sampling:
             expanded = embedding[:, None].expand(-1, num_samples, -1)
-            delta_ee, logits, _, _ = self.net.decode(expanded, stochastic=True, noise=noise)
+            delta_ee, gripper_output, _, _ = self.net.decode(expanded, stochastic=True, noise=noise)
         else:
-            delta_ee, logits, _, _ = self.net.decode(embedding[:, None], stochastic=False)
-            delta_ee, logits = delta_ee.expand(-1, num_samples, -1), logits.expand(-1, num_samples, -1)
-        return delta_ee, logits.softmax(dim=-1)
+            delta_ee, gripper_output, _, _ = self.net.decode(embedding[:, None], stochastic=False)
+            delta_ee = delta_ee.expand(-1, num_samples, -1)
+            gripper_output = gripper_output.expand(-1, num_samples, -1)
+        return delta_ee, self.config.gripper.sample_values(gripper_output)
 
     @torch.no_grad()
     def sample(
@@ -215,15 +216,15 @@ class BVMCPolicy(VMCPolicy):
         Returns:
             The `MCPrediction`.
         """
-        embedding, delta_ee, probs = self._mc_step(batch, num_samples, noise)
+        embedding, delta_ee, gripper_values = self._mc_step(batch, num_samples, noise)
         return make_prediction(
-            embedding, delta_ee, probs, self.config.uncertainty_lambda, self.config.gripper_commands
+            embedding, delta_ee, gripper_values, self.config.uncertainty_lambda, self.config.gripper
         )
 
     def _mc_step(
         self, batch: dict[str, Tensor], num_samples: int | None, noise: list[Tensor] | None
     ) -> tuple[Tensor, Tensor, Tensor]:
-        """CNN + LSTM once, head S times: e_t (B, H), delta-EE samples (B, S, 3), probabilities (B, S, 3)."""
+        """CNN + LSTM once, head S times: e_t (B, H), delta-EE samples (B, S, 3), gripper values (B, S, G)."""
         num_samples = self.config.num_samples if num_samples is None else num_samples
         if num_samples < 2:
             raise ValueError(f"The uncertainty needs at least 2 samples, got num_samples={num_samples}.")
@@ -239,31 +240,32 @@ class BVMCPolicy(VMCPolicy):
         if not self.mc_sampling:
             return super().select_action(batch)
         self.eval()
-        _, delta_ee, probs = self._mc_step(batch, None, None)
-        return mean_action(delta_ee, probs, self.config.gripper_commands)
+        _, delta_ee, gripper_values = self._mc_step(batch, None, None)
+        return mean_action(delta_ee, gripper_values, self.config.gripper)
 
 
-def mean_action(delta_ee: Tensor, probs: Tensor, levels: tuple[float, ...] = GRIPPER_COMMANDS) -> Tensor:
-    """(B, 4) mean delta EE of the (B, S, 3) samples; gripper: the command (of `levels`) of the class of
-    highest mean probability, (B, S, G) `probs`."""
-    gripper = gripper_commands(probs.sum(dim=1).argmax(dim=-1), levels)  # argmax of the sum = of the mean
-    return torch.cat([delta_ee.mean(dim=1), gripper[:, None]], dim=-1)
+def mean_action(
+    delta_ee: Tensor, gripper_values: Tensor, gripper: GripperReadout = DEFAULT_GRIPPER
+) -> Tensor:
+    """(B, 4) mean delta EE of the (B, S, 3) samples and the gripper's mean command of its (B, S, G) values
+    (classes: the command of the class of highest mean probability)."""
+    return torch.cat([delta_ee.mean(dim=1), gripper.mean_command(gripper_values)[:, None]], dim=-1)
 
 
 def make_prediction(
     embedding: Tensor,
     delta_ee: Tensor,
-    probs: Tensor,
+    gripper_values: Tensor,
     lam: float,
-    levels: tuple[float, ...] = GRIPPER_COMMANDS,
+    gripper: GripperReadout = DEFAULT_GRIPPER,
 ) -> MCPrediction:
-    """Assemble an `MCPrediction` from (B, S, 3) delta-EE samples and (B, S, G) gripper probabilities of the
-    classes whose commands are `levels`."""
+    """Assemble an `MCPrediction` from (B, S, 3) delta-EE samples and the (B, S, G) gripper values that
+    `gripper` reads."""
     return MCPrediction(
-        mean_action=mean_action(delta_ee, probs, levels),
+        mean_action=mean_action(delta_ee, gripper_values, gripper),
         uncertainty=trace_cov_uncertainty(delta_ee, lam),
         embedding=embedding,
         delta_ee_samples=delta_ee,
-        gripper_probs=probs,
-        gripper_levels=tuple(levels),
+        gripper_values=gripper_values,
+        gripper=gripper,
     )

@@ -11,10 +11,16 @@ from lerobot.optim.schedulers import CosineDecayWithWarmupSchedulerConfig
 from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
 
 from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE, LEGACY_RENDER_STYLE, check_render_style
+from lerobot_ivmc.policies.vmc.gripper import (
+    GRIPPER_COMMANDS,
+    GRIPPER_HEADS,
+    GripperReadout,
+    gripper_readout,
+)
 
 # Layout of the action: a continuous command (the delta end effector, 3 for the Fetch and MetaWorld arms)
-# followed by the gripper command, a class of {-1, 0, +1} or of `VMCConfig.gripper_levels`
-# (`VMCConfig.action_dim`).
+# followed by the gripper command, a class of {-1, 0, +1} or of `VMCConfig.gripper_levels`, or continuous
+# (`VMCConfig.gripper_head`, `VMCConfig.action_dim`).
 DELTA_EE_DIM = 3
 ACTION_DIM = DELTA_EE_DIM + 1
 # The auxiliary targets: end-effector (3) then object (3) position, read from `observation.environment_state`
@@ -23,8 +29,6 @@ AUX_DIM = 6
 ROLLOUT_MEMORY_MODES = ("trajectory", "window")
 TRAINING_MODES = ("sequence", "window")
 CHUNK_MEMORY_MODES = ("stored", "zero")
-# The default gripper classes' commands, close / no-op / open (class index = command + 1).
-GRIPPER_COMMANDS = (-1.0, 0.0, 1.0)
 # Default Adam learning rates per training mode: 6e-4 made the 10,000-step whole-demo schedule place as
 # well as 36,000 window steps at 3e-4 (docs/training_experiments.md, "Sequence training with the carried
 # memory").
@@ -110,6 +114,9 @@ class VMCConfig(PreTrainedConfig):
             is refused) and a class is executed as its level.
             None: (-1, 0, +1), each demo command rounded to the nearest (the Fetch tasks; MetaWorld's grab
             effort of 0.6 is then executed as 1). MetaWorld's push-v3 and assembly-v3 demos: [0, 0.6].
+        gripper_head: how the action's last entry is learned (`gripper.py`): "classes" (the paper's: the
+            classes of `gripper_levels`) or "continuous" (the command itself, MSE, executed as predicted:
+            a dataset whose gripper takes any value).
         aux_state_indices: the entries of `observation.environment_state` the auxiliary heads learn, the
             end effector's x, y, z then the object's (six). None: all six of a 6-D environment state (the
             Fetch datasets); with another state (MetaWorld's 39-D: [0, 1, 2, 4, 5, 6], which
@@ -159,6 +166,7 @@ class VMCConfig(PreTrainedConfig):
     frame_position_head: bool | None = None
     aux_state_indices: list[int] | None = None
     gripper_levels: list[float] | None = None
+    gripper_head: str = "classes"
 
     # Training augmentation (4 px of 64, as the usual 84 -> 76 random crops of pixel-based imitation).
     image_shift_pad: int = 4
@@ -227,6 +235,15 @@ class VMCConfig(PreTrainedConfig):
                     f"--policy.gripper_levels must be at least two distinct gripper commands in [-1, 1], "
                     f"ascending (e.g. [0, 0.6]), got {self.gripper_levels}."
                 )
+        if self.gripper_head not in GRIPPER_HEADS:
+            raise ValueError(
+                f"--policy.gripper_head must be one of {GRIPPER_HEADS}, got {self.gripper_head!r}."
+            )
+        if self.gripper_head == "continuous" and self.gripper_levels is not None:
+            raise ValueError(
+                "--policy.gripper_levels names the classes of --policy.gripper_head=classes; drop it for a "
+                "continuous gripper."
+            )
         if self.optimizer_lr is None:
             self.optimizer_lr = SEQUENCE_LR if self.training_mode == "sequence" else WINDOW_LR
         if not self.optimizer_lr > 0:
@@ -245,7 +262,8 @@ class VMCConfig(PreTrainedConfig):
         action_mode = self.normalization_mapping.get(FeatureType.ACTION.value, NormalizationMode.IDENTITY)
         if NormalizationMode(action_mode) is not NormalizationMode.IDENTITY:
             raise ValueError(
-                f"ACTION normalisation must be IDENTITY (the gripper is a class label), got {action_mode}."
+                f"ACTION normalisation must be IDENTITY (the delta EE is in action units and the gripper a "
+                f"class label or command), got {action_mode}."
             )
         self._built = True  # from here on, naming the checkpoint completes the config (`__setattr__`)
 
@@ -347,6 +365,11 @@ class VMCConfig(PreTrainedConfig):
     def gripper_commands(self) -> tuple[float, ...]:
         """The gripper command of each gripper class, ascending."""
         return GRIPPER_COMMANDS if self.gripper_levels is None else tuple(map(float, self.gripper_levels))
+
+    @property
+    def gripper(self) -> GripperReadout:
+        """What the gripper head's outputs mean (`gripper.py`)."""
+        return gripper_readout(self.gripper_head, self.gripper_commands)
 
     @property
     def aux_indices(self) -> tuple[int, ...] | None:

@@ -6,31 +6,32 @@ import torch
 import torch.nn.functional as F  # noqa: N812
 from torch import Tensor
 
-from lerobot_ivmc.policies.vmc.configuration_vmc import GRIPPER_COMMANDS
-from lerobot_ivmc.policies.vmc.network import POSITION_DIM, gripper_labels
+from lerobot_ivmc.policies.vmc.gripper import DEFAULT_GRIPPER, GripperReadout
+from lerobot_ivmc.policies.vmc.network import POSITION_DIM
 
 
 def supervised_losses(
     outputs: tuple[Tensor, ...],
     action: Tensor,
     aux: Tensor | None,
-    gripper_levels: tuple[float, ...] = GRIPPER_COMMANDS,
+    gripper: GripperReadout = DEFAULT_GRIPPER,
 ) -> dict[str, Tensor]:
     """The four losses of the paper's Eq. (loss-vmc), equally weighted, each a mean over the N labels;
     a fifth, weighed the same, when the outputs include the goal head's.
 
     Args:
-        outputs: decoded delta EE (N, 3), gripper logits (N, G), EE (N, 3) and object (N, 3) positions,
+        outputs: decoded delta EE (N, 3), gripper outputs (N, G), EE (N, 3) and object (N, 3) positions,
             optionally the predicted object position at the demo's end (N, 3).
         action: (N, D) demonstrated actions, the gripper command last.
         aux: (N, 6) auxiliary targets (EE then object position, normalised), (N, 9) with the goal head's
             target (the object's position at the demo's end) appended; None for a net without those heads.
-        gripper_levels: the gripper classes' commands (`VMCConfig.gripper_commands`).
+        gripper: what the gripper outputs mean (`VMCConfig.gripper`): classes (cross-entropy) or a command
+            (MSE).
     """
-    delta_ee, logits = outputs[:2]
+    delta_ee, gripper_output = outputs[:2]
     losses = {
         "loss_delta_ee": F.mse_loss(delta_ee, action[:, :-1]),
-        "loss_gripper": F.cross_entropy(logits, gripper_labels(action[:, -1], gripper_levels)),
+        "loss_gripper": gripper.loss(gripper_output, action[:, -1]),
     }
     if aux is not None:
         losses.update(position_losses(outputs[2:], aux, "loss_"))

@@ -2,10 +2,11 @@
 
 Its network (`network.py`): CNN over the RGB frame -> spatial feature map concatenated with the tiled
 proprioception -> LSTM -> #fc fully connected layers -> four heads: delta end-effector command (MSE),
-gripper close / no-op / open (cross-entropy), auxiliary end-effector and object positions (MSE); the four
-losses equally weighted (the paper's Eq. (loss-vmc), `losses.py`). Optionally (beyond the paper) a head for
-the object's position at the end of the demo (`goal_head`) and one reading the positions from each frame's
-CNN map (`frame_position_head`). `BVMCPolicy` swaps the fully connected layers for concrete dropout ones.
+gripper close / no-op / open (cross-entropy; or a continuous command, MSE: `gripper.py`), auxiliary
+end-effector and object positions (MSE); the four losses equally weighted (the paper's Eq. (loss-vmc),
+`losses.py`). Optionally (beyond the paper) a head for the object's position at the end of the demo
+(`goal_head`) and one reading the positions from each frame's CNN map (`frame_position_head`).
+`BVMCPolicy` swaps the fully connected layers for concrete dropout ones.
 """
 
 from pathlib import Path
@@ -16,6 +17,7 @@ from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
 from torch import Tensor, nn
 
 from lerobot_ivmc.policies.vmc.configuration_vmc import VMCConfig
+from lerobot_ivmc.policies.vmc.gripper import deterministic_action
 from lerobot_ivmc.policies.vmc.losses import (
     demo_end_object_position,
     frame_position_losses,
@@ -26,7 +28,6 @@ from lerobot_ivmc.policies.vmc.network import (
     Memory,
     MLPHead,
     VisuomotorNet,
-    deterministic_action,
     random_shift,
 )
 from lerobot_ivmc.policies.vmc.sequence_chunks import check_chunk_length, chunk_frames_mask, episode_lengths
@@ -134,7 +135,7 @@ class VMCPolicy(PreTrainedPolicy):
             outputs, action, aux, frame_positions = self._sequence_outputs(batch)
         else:
             outputs, action, aux, frame_positions = self._window_outputs(batch)
-        losses = supervised_losses(outputs, action, aux, self.config.gripper_commands)
+        losses = supervised_losses(outputs, action, aux, self.config.gripper)
         if frame_positions is not None:
             losses.update(frame_position_losses(*frame_positions))
         regularization = self.net.head.regularization()
@@ -270,12 +271,12 @@ class VMCPolicy(PreTrainedPolicy):
 
     @torch.no_grad()
     def select_action(self, batch: dict[str, Tensor], **kwargs) -> Tensor:
-        """The action to execute, (B, 4), the gripper one of `config.gripper_commands`; advances the LSTM
-        memory by one step."""
+        """The action to execute, (B, 4), the gripper's command as `config.gripper` reads it; advances the
+        LSTM memory by one step."""
         self.eval()
         embedding = self.step_embedding(batch)
-        delta_ee, logits, _, _ = self.net.decode(embedding, stochastic=False)
-        return deterministic_action(delta_ee, logits, self.config.gripper_commands)
+        delta_ee, gripper_output, _, _ = self.net.decode(embedding, stochastic=False)
+        return deterministic_action(delta_ee, gripper_output, self.config.gripper)
 
     @torch.no_grad()
     def predict_action_chunk(self, batch: dict[str, Tensor], **kwargs) -> Tensor:

@@ -1,7 +1,7 @@
-"""The visuomotor network VMC and Bayesian VMC share, and what turns its outputs into actions.
+"""The visuomotor network VMC and Bayesian VMC share (`gripper.py` turns its gripper outputs into commands).
 
 CNN over the RGB frame -> spatial feature map concatenated with the tiled proprioception -> LSTM ->
-#fc fully connected layers -> four heads: delta end-effector command, gripper close / no-op / open,
+#fc fully connected layers -> four heads: delta end-effector command, gripper (classes or a command),
 auxiliary end-effector and object positions; optionally (beyond the paper) the object's position at the
 end of the demo (`goal_head`) and the positions read from each frame's CNN map (`frame_position_head`).
 """
@@ -15,7 +15,7 @@ import torch.nn.functional as F  # noqa: N812
 from torch import Tensor, nn
 
 from lerobot_ivmc.hardware import cpu_has_native_bf16
-from lerobot_ivmc.policies.vmc.configuration_vmc import AUX_DIM, GRIPPER_COMMANDS, VMCConfig
+from lerobot_ivmc.policies.vmc.configuration_vmc import AUX_DIM, VMCConfig
 
 # One position (x, y, z) of `observation.environment_state`: the end effector's, then the object's.
 POSITION_DIM = AUX_DIM // 2
@@ -71,13 +71,14 @@ class VisuomotorNet(nn.Module):
         self.map_size = (height, width)
         self.lstm = nn.LSTMCell((channels + state_dim) * height * width, config.lstm_dim)
         self.head = head
-        # delta EE (3) | gripper logits (G, one per `VMCConfig.gripper_commands`) | EE position (3) | object
+        # delta EE (3) | gripper (G logits, one per `VMCConfig.gripper_commands`, or 1 continuous command:
+        # `VMCConfig.gripper`) | EE position (3) | object
         # position (3); the positions only for a dataset with auxiliary targets (`VMCConfig.aux_indices`).
         self.has_aux = config.aux_indices is not None
         self.command_dim = config.action_dim - 1  # the continuous part of the action (the delta EE)
-        self.gripper_classes = len(config.gripper_commands)
+        self.gripper_dim = config.gripper.out_dim
         self.decoder = nn.Linear(
-            head.out_dim, self.command_dim + self.gripper_classes + (AUX_DIM if self.has_aux else 0)
+            head.out_dim, self.command_dim + self.gripper_dim + (AUX_DIM if self.has_aux else 0)
         )
         # Object position at the demo's end (`goal_head`): a training target only, never used to act.
         self.goal_decoder = nn.Linear(head.out_dim, POSITION_DIM) if config.goal_head else None
@@ -165,23 +166,23 @@ class VisuomotorNet(nn.Module):
     def decode(
         self, e: Tensor, stochastic: bool, noise: list[Tensor] | None = None, with_goal: bool = False
     ) -> tuple[Tensor, ...]:
-        """Head and decoder: (..., lstm_dim) -> delta EE (D - 1 of a D-dimensional action), gripper logits,
+        """Head and decoder: (..., lstm_dim) -> delta EE (D - 1 of a D-dimensional action), gripper outputs,
         EE position, object position.
 
         Args:
             with_goal: also return the goal head's output (a net built with `goal_head`).
 
         Returns:
-            (..., 3) delta EE, (..., G) gripper logits, (..., 3) EE and (..., 3) object positions
-            (the positions in the normalised space of `observation.environment_state`; None for a net
-            without auxiliary heads), then with `with_goal` (..., 3) the object's predicted position at the
-            demo's end.
+            (..., 3) delta EE, (..., G) gripper outputs (`VMCConfig.gripper`), (..., 3) EE and (..., 3)
+            object positions (the positions in the normalised space of `observation.environment_state`;
+            None for a net without auxiliary heads), then with `with_goal` (..., 3) the object's predicted
+            position at the demo's end.
         """
         features = self.head(e, stochastic, noise)
         if not self.has_aux:
-            return (*self.decoder(features).split([self.command_dim, self.gripper_classes], -1), None, None)
+            return (*self.decoder(features).split([self.command_dim, self.gripper_dim], -1), None, None)
         outputs = self.decoder(features).split(
-            [self.command_dim, self.gripper_classes, POSITION_DIM, POSITION_DIM], dim=-1
+            [self.command_dim, self.gripper_dim, POSITION_DIM, POSITION_DIM], dim=-1
         )
         if not with_goal:
             return outputs
@@ -215,35 +216,3 @@ def random_shift(images: Tensor, pad: int, group: Tensor | None = None) -> Tenso
     frame = torch.arange(n, device=images.device)[:, None, None]
     shifted = padded[frame, :, rows[:, :, None], cols[:, None, :]]  # (N, H, W, C)
     return shifted.permute(0, 3, 1, 2)
-
-
-# A demo's gripper command farther than this from every one of `--policy.gripper_levels` is refused.
-LEVEL_TOLERANCE = 0.05
-
-
-def gripper_commands(class_index: Tensor, levels: tuple[float, ...] = GRIPPER_COMMANDS) -> Tensor:
-    """Map gripper class indices to their commands (`VMCConfig.gripper_commands`), as float."""
-    return torch.tensor(levels, dtype=torch.get_default_dtype(), device=class_index.device)[class_index]
-
-
-def deterministic_action(
-    delta_ee: Tensor, gripper_logits: Tensor, levels: tuple[float, ...] = GRIPPER_COMMANDS
-) -> Tensor:
-    """The executed action (B, 4) from one decoded pass: delta EE and the most likely gripper command."""
-    return torch.cat([delta_ee, gripper_commands(gripper_logits.argmax(dim=-1), levels)[:, None]], dim=-1)
-
-
-def gripper_labels(command: Tensor, levels: tuple[float, ...] = GRIPPER_COMMANDS) -> Tensor:
-    """Map gripper commands to class indices: the nearest level, refused farther than `LEVEL_TOLERANCE` from
-    every level (for the default -1, 0, +1: the command rounded, then shifted, as the studies learned it)."""
-    if tuple(levels) == GRIPPER_COMMANDS:
-        return (torch.round(command).clamp(-1, 1) + 1).long()
-    distance = (command[..., None] - torch.tensor(levels, dtype=command.dtype, device=command.device)).abs()
-    nearest, labels = distance.min(dim=-1)
-    if nearest.numel() and (worst := float(nearest.max())) > LEVEL_TOLERANCE:
-        far = float(command.flatten()[nearest.flatten().argmax()])
-        raise ValueError(
-            f"A gripper command of {far:g} is {worst:.2g} from the nearest of "
-            f"--policy.gripper_levels={list(levels)}: give the levels the dataset's actions take."
-        )
-    return labels
