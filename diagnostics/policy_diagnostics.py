@@ -19,7 +19,7 @@ from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
 
 from diagnostics.checkpoint import InspectedPolicy
 from lerobot_ivmc.datasets.features import IMAGE_KEY
-from lerobot_ivmc.policies.vmc.gripper import LEVEL_TOLERANCE
+from lerobot_ivmc.policies.vmc.gripper import LEVEL_TOLERANCE, ContinuousGripper
 
 
 def main() -> None:
@@ -50,10 +50,13 @@ def main() -> None:
                 delta_ee, logits, ee, obj = policy.net.decode(embedding, stochastic=False)
             expert = item[ACTION].numpy()
             delta_errors.append(np.abs(delta_ee[0].numpy() - expert[:3]))
-            # The command the head learned for the expert's, within the level tolerance (classes: the class).
+            # The command the head learned for the expert's: the same class, or a continuous one within
+            # the level tolerance.
             gripper = policy.config.gripper
             learned = float(gripper.learned(torch.as_tensor(expert[3:]))[0])
-            gripper_hits.append(abs(float(gripper.command(logits)[0]) - learned) <= LEVEL_TOLERANCE)
+            executed = float(gripper.command(logits)[0])
+            tolerance = LEVEL_TOLERANCE if isinstance(gripper, ContinuousGripper) else 0.0
+            gripper_hits.append(abs(executed - learned) <= tolerance)
             predicted_aux = inspected.auxiliary_positions(ee, obj)
             aux_errors.append(np.abs(predicted_aux - item[OBS_ENV_STATE].numpy()))
     delta_errors, aux_errors = np.array(delta_errors), np.array(aux_errors) * 100

@@ -18,28 +18,43 @@ import numpy as np
 def cluster_faces(vertices: np.ndarray, faces: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
     """Vertex clustering: every vertex moves to the first vertex of its `cell`-sized grid cell.
 
+    A face is kept if its three corners stay distinct, it still faces the way it did (MuJoCo culls back
+    faces: one turned over would vanish), and no earlier face has the same corners in the same winding.
+
     Args:
         vertices: (V, 3) mesh vertices, metres.
-        faces: (F, 3) vertex indices of each triangle.
+        faces: (F, 3) vertex indices of each triangle, counter-clockwise seen from outside.
         cell: the grid's cell side, metres (> 0).
 
     Returns:
-        kept: (K,) indices of the faces that keep three distinct corners, the first of any duplicates.
+        kept: (K,) indices of the faces kept.
         clustered: (K, 3) those faces' corners after clustering (indices into `vertices`).
     """
     if cell <= 0:
         raise ValueError(f"The clustering cell must be positive, got {cell}.")
-    cells = np.floor(np.asarray(vertices) / cell).astype(np.int64)
+    vertices, faces = np.asarray(vertices, dtype=np.float64), np.asarray(faces)
+    cells = np.floor(vertices / cell).astype(np.int64)
     _, first, which = np.unique(cells, axis=0, return_index=True, return_inverse=True)
-    representative = first[which.ravel()]
-    corners = representative[np.asarray(faces)]
+    corners = first[which.ravel()][faces]
     distinct = (
         (corners[:, 0] != corners[:, 1]) & (corners[:, 1] != corners[:, 2]) & (corners[:, 0] != corners[:, 2])
     )
-    kept = np.flatnonzero(distinct)
-    _, unique = np.unique(np.sort(corners[kept], axis=1), axis=0, return_index=True)
+    kept = np.flatnonzero(
+        distinct & (np.einsum("ij,ij->i", normals(vertices, faces), normals(vertices, corners)) > 0)
+    )
+    # The same triangle in the same winding: rotate each so its smallest corner comes first.
+    rotated = corners[kept]
+    shift = rotated.argmin(axis=1)
+    rotated = rotated[np.arange(len(rotated))[:, None], (shift[:, None] + np.arange(3)) % 3]
+    _, unique = np.unique(rotated, axis=0, return_index=True)
     kept = kept[np.sort(unique)]
     return kept, corners[kept]
+
+
+def normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(F, 3) unnormalised normals of the (F, 3) triangles (right-handed in their corner order)."""
+    a, b, c = (vertices[faces[:, i]] for i in range(3))
+    return np.cross(b - a, c - a)
 
 
 @contextlib.contextmanager

@@ -42,6 +42,11 @@ class Embodiment:
     held_gap: tuple[float, float]
     approach_gain: float = 1.0
 
+    def closes(self, command: float) -> bool:
+        """Whether a gripper command closes the fingers: it is nearer "close" than "open" (a policy's effort
+        of 0.6, or a continuous gripper's 0.97, closes MetaWorld's Sawyer as 1 does)."""
+        return abs(command - self.gripper_close) < abs(command - self.gripper_open)
+
     def holds(self, fingers: np.ndarray) -> bool:
         """Whether fingers read as `fingers` (F,) rest apart on something."""
         gap = float(np.sum(fingers))

@@ -1,5 +1,5 @@
-"""The gripper head. `--policy.gripper_levels`: the classes a dataset's gripper commands take (MetaWorld's grab
-effort of 0.6), learned as the nearest level and executed as it; the default (-1, 0, +1) as before.
+"""The gripper head. `--policy.gripper_levels`: the classes a dataset's gripper commands take (MetaWorld's
+grab effort of 0.6), learned as the nearest level and executed as it; the default (-1, 0, +1) as before.
 `--policy.gripper_head=continuous`: any command, regressed and executed as predicted."""
 
 from __future__ import annotations

@@ -72,6 +72,13 @@ def test_the_fingers_hold_something_only_between_closed_on_nothing_and_open() ->
     assert not SAWYER.holds(np.array([1.0])) and not FAKE.holds(np.array([0.9]))
 
 
+def test_a_command_nearer_close_than_open_closes_the_fingers() -> None:
+    # MetaWorld's grab effort of 0.6 and a continuous gripper's 0.97 close the Sawyer as 1 does.
+    assert SAWYER.closes(1.0) and SAWYER.closes(0.6) and SAWYER.closes(0.97)
+    assert not SAWYER.closes(-1.0) and not SAWYER.closes(-0.4)
+    assert FETCH.closes(FETCH.gripper_close) and not FETCH.closes(FETCH.gripper_open)
+
+
 def retry_target(start_radius: float, seed: int) -> np.ndarray:
     """The point `retry` returns to from (0.1, 0.7, 0.05) on the synthetic robot, the rollout's draws
     seeded by `seed`."""

@@ -33,8 +33,8 @@ class MCPrediction:
         uncertainty: (B,) trace of the covariance of the transformed delta-EE samples, Eq. (unc-tr-cov).
         embedding: (B, lstm_dim) LSTM embedding e_t.
         delta_ee_samples: (B, S, 3) sampled delta end-effector commands.
-        gripper_values: per sample, (B, S, G) gripper class probabilities (G = 3: close, no-op, open), or
-            (B, S, 1) commands of a continuous gripper.
+        gripper_values: per sample, (B, S, G) gripper class probabilities (G = len(gripper_commands), by
+            default 3: close, no-op, open), or (B, S, 1) commands of a continuous gripper.
         gripper: what `gripper_values` mean (`VMCConfig.gripper`).
     """
 

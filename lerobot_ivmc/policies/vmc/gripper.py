@@ -2,9 +2,9 @@
 
 `--policy.gripper_head=classes` (the paper's): a class per command, {-1, 0, +1} (close / no-op / open) or a
 dataset's `--policy.gripper_levels`, cross-entropy, the most likely class executed. `continuous`: the
-command itself, MSE, executed as predicted (a dataset whose gripper takes any value, e.g. a teleoperated
-gripper's position). Each readout maps the decoder's gripper outputs to commands, for one pass and for the
-Monte Carlo samples of bvmc.
+command itself in action units [-1, 1], MSE, executed as predicted (a dataset whose gripper command takes
+any value in that range, e.g. a teleoperated effort). Each readout maps the decoder's gripper outputs to
+commands, for one pass and for the Monte Carlo samples of bvmc.
 """
 
 from __future__ import annotations
@@ -83,7 +83,8 @@ class GripperClasses:
 
 @dataclass(frozen=True)
 class ContinuousGripper:
-    """One continuous gripper command, regressed (MSE) and executed as predicted."""
+    """One continuous gripper command in action units, regressed (MSE) and executed as predicted, clamped
+    to [-1, 1] (a regression overshoots its demos' extremes a little; the envs refuse a command past 1)."""
 
     out_dim: int = 1
 
@@ -97,7 +98,7 @@ class ContinuousGripper:
 
     def command(self, output: Tensor) -> Tensor:
         """(...) the command of (..., 1) outputs."""
-        return output[..., 0]
+        return output[..., 0].clamp(-1.0, 1.0)
 
     def sample_values(self, output: Tensor) -> Tensor:
         """(B, S, 1) the sampled commands."""
@@ -105,11 +106,11 @@ class ContinuousGripper:
 
     def mean_command(self, values: Tensor) -> Tensor:
         """(B,) the mean of the (B, S, 1) sampled commands."""
-        return values.mean(dim=1)[..., 0]
+        return self.sample_commands(values).mean(dim=1)
 
     def sample_commands(self, values: Tensor) -> Tensor:
         """(B, S) each sample's command."""
-        return values[..., 0]
+        return values[..., 0].clamp(-1.0, 1.0)
 
 
 GripperReadout = GripperClasses | ContinuousGripper

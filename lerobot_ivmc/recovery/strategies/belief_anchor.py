@@ -97,9 +97,8 @@ class AnchorRecovery(RecoveryStrategy):
 
     def holding(self, ctx: IntrospectiveController, row: int, fingers: np.ndarray) -> bool:
         """Whether rollout `row` holds the object: it last commanded "close" and the fingers rest apart."""
-        return bool(ctx.last_gripper[row] == ctx.embodiment.gripper_close) and ctx.embodiment.holds(
-            fingers[row]
-        )
+        embodiment = ctx.embodiment
+        return embodiment.closes(float(ctx.last_gripper[row])) and embodiment.holds(fingers[row])
 
     def begin(
         self, ctx: IntrospectiveController, row: int, grip: np.ndarray, fingers: np.ndarray
@@ -109,7 +108,7 @@ class AnchorRecovery(RecoveryStrategy):
             look = LookFromStart(
                 grip,
                 ctx.initial_grip[row],
-                int(ctx.last_gripper[row]),
+                float(ctx.last_gripper[row]),
                 a.look_steps,
                 a.steps,
                 s.move_tolerance,
