@@ -44,9 +44,9 @@ class TrainPolicyConfig:
     Args:
         training_mode, chunk_length: as the policies' config fields.
         goal_head: as the policies' field; None follows the policy (on in sequence training).
-        image_shift_pad, optimizer_lr, chunk_memory, frame_position_head: the policies' own fields; None
-            leaves the flag out, so the policy's default applies (the training's fingerprint holds the
-            resolved policy config, so a changed default redoes it).
+        image_shift_pad, optimizer_lr, chunk_memory, frame_position_head, gripper_head, gripper_levels:
+            the policies' own fields; None leaves the flag out, so the policy's default applies (the
+            training's fingerprint holds the resolved policy config, so a changed default redoes it).
     """
 
     training_mode: str = "sequence"
@@ -56,6 +56,8 @@ class TrainPolicyConfig:
     optimizer_lr: float | None = None
     chunk_memory: str | None = None
     frame_position_head: bool | None = None
+    gripper_head: str | None = None
+    gripper_levels: list[float] | None = None
 
     def given(self) -> dict:
         """The fields passed to the policies (unset ones left out)."""

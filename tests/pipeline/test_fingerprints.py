@@ -160,3 +160,23 @@ def test_a_changed_default_of_a_generic_strategy_redoes_its_rows_only(
     after = stage_fingerprints(cfg)
     changed = sorted(name for name in before if before[name] != after[name])
     assert changed == [f"eval_bvmc_fc1_{row}"]
+
+
+def test_a_continuous_gripper_study_retrains_from_the_same_demos(monkeypatch: pytest.MonkeyPatch) -> None:
+    """`--train.policy.gripper_head=continuous` reaches both trainings, which redo (and all after them),
+    while the demos stay collected; left out, the studies begun before keep every fingerprint (above)."""
+    monkeypatch.setattr(stages_module, "cpu_has_native_bf16", lambda: True)
+    args = [
+        "--task=pick_place",
+        "--preset=lite",
+        "--output_dir=/studies/pick_place_lite",
+        "--train.num_fc_layers=[1]",
+    ]
+    cfg = parse_config([*args, "--train.policy.gripper_head=continuous"])
+    trainings = [stage for stage in build_stages(cfg) if stage.name.startswith("train_")]
+    assert all("--policy.gripper_head=continuous" in stage.argv for stage in trainings)
+    found = stage_fingerprints(cfg)
+    assert found["collect"] == LITE_PICK_PLACE["collect"]
+    assert not [
+        name for name in LITE_PICK_PLACE if name != "collect" and found[name] == LITE_PICK_PLACE[name]
+    ]
