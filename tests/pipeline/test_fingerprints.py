@@ -37,20 +37,20 @@ LITE_PICK_PLACE = {
     "eval_bvmc_fc1_anchor": "a69edf285a40f946",
     "detect_fc1": "6e7b0a3c610b79c0",
 }
+# The command those fingerprints are of.
+LITE_PICK_PLACE_ARGS = [
+    "--task=pick_place",
+    "--preset=lite",
+    "--output_dir=/studies/pick_place_lite",
+    "--train.num_fc_layers=[1]",
+]
 
 
 def test_studies_begun_earlier_keep_their_stage_fingerprints(monkeypatch: pytest.MonkeyPatch) -> None:
     """Also: a policy field the training takes from its dataset (`trained_task`, added after those studies
     began) is not a setting of the training stage; its input, the collect stage, is in the fingerprint."""
     monkeypatch.setattr(stages_module, "cpu_has_native_bf16", lambda: True)
-    cfg = parse_config(
-        [
-            "--task=pick_place",
-            "--preset=lite",
-            "--output_dir=/studies/pick_place_lite",
-            "--train.num_fc_layers=[1]",
-        ]
-    )
+    cfg = parse_config(LITE_PICK_PLACE_ARGS)
     found: dict[str, str] = {}
     for stage in build_stages(cfg):
         found[stage.name] = fingerprint(stage, found)
@@ -119,12 +119,7 @@ def test_episode_streams_redo_the_bvmc_rollouts_only(monkeypatch: pytest.MonkeyP
     (threshold, the BVMC rows, the Fig. 3 episodes after them), and only those change their fingerprints:
     the trainings, checks, foresight and VMC's row stay done."""
     monkeypatch.setattr(stages_module, "cpu_has_native_bf16", lambda: True)
-    args = [
-        "--task=pick_place",
-        "--preset=lite",
-        "--output_dir=/studies/pick_place_lite",
-        "--train.num_fc_layers=[1]",
-    ]
+    args = LITE_PICK_PLACE_ARGS
     found: dict[str, str] = {}
     for stage in build_stages(parse_config([*args, "--random_streams=episode"])):
         found[stage.name] = fingerprint(stage, found)
@@ -166,12 +161,7 @@ def test_a_continuous_gripper_study_retrains_from_the_same_demos(monkeypatch: py
     """`--train.policy.gripper_head=continuous` reaches both trainings, which redo (and all after them),
     while the demos stay collected; left out, the studies begun before keep every fingerprint (above)."""
     monkeypatch.setattr(stages_module, "cpu_has_native_bf16", lambda: True)
-    args = [
-        "--task=pick_place",
-        "--preset=lite",
-        "--output_dir=/studies/pick_place_lite",
-        "--train.num_fc_layers=[1]",
-    ]
+    args = LITE_PICK_PLACE_ARGS
     cfg = parse_config([*args, "--train.policy.gripper_head=continuous"])
     trainings = [stage for stage in build_stages(cfg) if stage.name.startswith("train_")]
     assert all("--policy.gripper_head=continuous" in stage.argv for stage in trainings)
