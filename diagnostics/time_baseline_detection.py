@@ -21,60 +21,50 @@ from pathlib import Path
 import numpy as np
 
 from lerobot_ivmc.evaluation.detection import auroc
-from lerobot_ivmc.evaluation.traces import TRACES_FILE
+from lerobot_ivmc.evaluation.traces import TRACES_FILE, load_traces
 
 # The trigger's first step (`--recovery.initial_interval`): earlier window sums are never compared.
 FIRST_STEP = 20
 
 
-def load_run(folder: Path) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray]:
-    """Per episode (steps, window sums), and (E,) success, of an evaluation without recovery."""
+def load_run(folder: Path) -> tuple[list[np.ndarray], np.ndarray]:
+    """Per episode its (T_e,) window sums (index = step), and (E,) success, of an evaluation without
+    recovery."""
     episodes = json.loads((folder / "eval_info.json").read_text())["per_episode"]
-    with np.load(folder / TRACES_FILE) as data:
-        traces = [
-            (data["step"][data["episode"] == i], data["window_sum"][data["episode"] == i])
-            for i in range(len(episodes))
-        ]
+    traces = [trace["window_sum"] for trace in load_traces(folder / TRACES_FILE)]
     return traces, np.array([bool(e["success"]) for e in episodes])
 
 
 def success_baseline(
-    traces: list[tuple[np.ndarray, np.ndarray]], successes: np.ndarray, q: float, min_successes: int
+    traces: list[np.ndarray], successes: np.ndarray, q: float, min_successes: int
 ) -> np.ndarray:
     """(T,) the q-quantile of the successful episodes' window sums at each step, carried forward where
     fewer than `min_successes` are still running (NaN before the first step with enough)."""
-    length = max(int(steps.max()) for steps, _ in traces) + 1
-    per_step: list[list[float]] = [[] for _ in range(length)]
-    for (steps, sums), success in zip(traces, successes, strict=True):
-        if success:
-            for step, value in zip(steps, sums, strict=True):
-                per_step[int(step)].append(float(value))
+    length = max(len(sums) for sums in traces)
+    running = np.full((int(successes.sum()), length), np.nan)  # successes end early: NaN past their end
+    for row, sums in enumerate(sums for sums, success in zip(traces, successes, strict=True) if success):
+        running[row, : len(sums)] = sums
     baseline, last = np.full(length, np.nan), np.nan
-    for step, values in enumerate(per_step):
+    for step, column in enumerate(running.T):
+        values = column[np.isfinite(column)]
         last = float(np.quantile(values, q)) if len(values) >= min_successes else last
         baseline[step] = last
     return baseline
 
 
-def scores(traces: list[tuple[np.ndarray, np.ndarray]], baseline: np.ndarray | None) -> np.ndarray:
+def scores(traces: list[np.ndarray], baseline: np.ndarray | None) -> np.ndarray:
     """(E,) each episode's max window sum from `FIRST_STEP` on; divided by the baseline when one is given
     (steps past the baseline's end use its last value)."""
     out = []
-    for steps, sums in traces:
-        kept = steps >= FIRST_STEP
-        if not kept.any():
-            out.append(0.0)
-            continue
-        values = sums[kept]
+    for sums in traces:
+        values = sums[FIRST_STEP:]
         if baseline is not None:
-            values = values / baseline[np.minimum(steps[kept], len(baseline) - 1)]
+            values = values / baseline[np.minimum(np.arange(FIRST_STEP, len(sums)), len(baseline) - 1)]
         out.append(float(np.nanmax(values)) if np.isfinite(values).any() else 0.0)
     return np.array(out)
 
 
-def validation_auroc(
-    traces: list[tuple[np.ndarray, np.ndarray]], successes: np.ndarray, q: float, min_successes: int
-) -> float:
+def validation_auroc(traces: list[np.ndarray], successes: np.ndarray, q: float, min_successes: int) -> float:
     """Mean AUROC over two folds of the validation episodes: one half's successes make the baseline, the
     other half is scored."""
     index = np.arange(len(traces))
