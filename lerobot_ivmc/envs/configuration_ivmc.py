@@ -68,7 +68,7 @@ class IvmcEnv(EnvConfig):
                 raise ValueError(f"env.{name} must be positive, got {getattr(self, name)}.")
         for name in ("image_size", "render_size"):
             check_image_size(f"env.{name}", getattr(self, name))
-        check_render_style("env.render_style", self.render_style)
+        check_render_style("env.render_style", self.render_style, framing=False)
         if self.split not in (*SPLITS, "all"):
             raise ValueError(f"Unknown split {self.split!r}; choose one of {(*SPLITS, 'all')}.")
         if self.obs_type == "pixels_agent_pos":

@@ -138,7 +138,7 @@ class IvmcFetchEnv(gym.Env, EzPickle):
             check_image_size(name, size)
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"Unsupported render_mode {render_mode!r}; only 'rgb_array' is available.")
-        check_render_style("render_style", render_style)
+        check_render_style("render_style", render_style, framing=False)
         self.obs_type = obs_type
         self.image_size = int(image_size)
         self.render_size = int(render_size)

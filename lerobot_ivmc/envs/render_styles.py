@@ -20,12 +20,15 @@ class RenderStyle:
         reflections: mirror the scene in reflective surfaces (`mjRND_REFLECTION`).
         mesh_cell: draw meshes with their vertices clustered to cells of this side, metres
             (`coarse_meshes.py`; 0 = the model's meshes).
+        framed: turn the camera to the task's workspace and narrow it until the workspace fills the frame
+            (`metaworld/framing.py`; MetaWorld only, the Fetch camera is framed on its table already).
     """
 
     multisamples: int
     shadows: bool
     reflections: bool
     mesh_cell: float = 0.0
+    framed: bool = False
 
 
 # "fetch": the look of the Fetch XML (4x MSAA, shadows, reflections), that of every dataset and checkpoint
@@ -35,19 +38,29 @@ class RenderStyle:
 # MetaWorld suite's default (its scenes' shadows and mirror-like floor cost most of a 64-px frame there).
 # "lean": flat with the meshes clustered to 1 cm, under a pixel of a 64-px MetaWorld frame at the table;
 # on a software renderer the Sawyer's mesh triangles are most of what remains of a flat frame's cost.
+# "framed": flat, with MetaWorld's camera framed on the task's workspace (a pick-place puck two or three
+# pixels wide at 64 px in LeRobot's corner2 view grows to about twice that).
 RENDER_STYLES = {
     "fetch": RenderStyle(multisamples=4, shadows=True, reflections=True),
     "fast": RenderStyle(multisamples=0, shadows=True, reflections=True),
     "flat": RenderStyle(multisamples=0, shadows=False, reflections=False),
     "lean": RenderStyle(multisamples=0, shadows=False, reflections=False, mesh_cell=0.01),
+    "framed": RenderStyle(multisamples=0, shadows=False, reflections=False, framed=True),
 }
 DEFAULT_RENDER_STYLE = "fast"
 # What datasets and checkpoints that do not record a render style were made with.
 LEGACY_RENDER_STYLE = "fetch"
 
 
-def check_render_style(name: str, style: Any) -> str:
-    """Return `style` if it names a render style, else raise a ValueError naming `name` and the styles."""
+def check_render_style(name: str, style: Any, framing: bool = True) -> str:
+    """Return `style` if it names a render style, else raise a ValueError naming `name` and the styles.
+    `framing=False` (an env whose camera cannot be framed) also refuses the framed styles."""
     if style not in RENDER_STYLES:
         raise ValueError(f"Unknown {name} {style!r}; choose one of {tuple(RENDER_STYLES)}.")
+    if not framing and RENDER_STYLES[style].framed:
+        others = tuple(key for key, value in RENDER_STYLES.items() if not value.framed)
+        raise ValueError(
+            f"{name} {style!r} frames a MetaWorld task's workspace; this env's camera is framed already: "
+            f"choose one of {others}."
+        )
     return style

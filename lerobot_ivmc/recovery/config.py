@@ -43,6 +43,9 @@ class RecoveryConfig:
         backoff_from: where T_recovery's steps are counted from: "trigger" (the last recovery's first step,
             the paper's reading) or "resume" (the policy's resumption after the last recovery: only steps
             in normal operation count, so a long manoeuvre does not use up the backoff).
+        max_recoveries: the most recoveries an episode may fire; 0: no limit (the paper's). With 1, a rollout
+            that recovered once goes on with the policy however uncertain it becomes (a second retry throws
+            away the first one's progress).
         reset_window_after_recovery: clear the window sum when a recovery starts and add no uncertainty
             during it, so the next trigger is decided on steps after the recovery only. The paper is
             silent; without it the high uncertainties that fired the trigger keep the sum above C.
@@ -82,6 +85,7 @@ class RecoveryConfig:
     window: int | None = None
     initial_interval: int = 20
     backoff_from: str = "trigger"
+    max_recoveries: int = 0
     reset_window_after_recovery: bool = True
     recovery_steps: int = 25
     backtrack_horizon: int = 20
@@ -117,7 +121,7 @@ class RecoveryConfig:
             )
         if self.window is not None and self.window < 1:
             raise ValueError(f"--recovery.window must be >= 1 step, got {self.window}.")
-        for name in ("initial_interval", "max_videos"):
+        for name in ("initial_interval", "max_videos", "max_recoveries"):
             if getattr(self, name) < 0:
                 raise ValueError(f"--recovery.{name} must be >= 0, got {getattr(self, name)}.")
         for name in ("backtrack_horizon", "recovery_steps"):

@@ -169,6 +169,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
             self.recovery.initial_interval,
             self.recovery.reset_window_after_recovery,
             self.recovery.backoff_from,
+            self.recovery.max_recoveries,
         )
         self.manoeuvres: list[Manoeuvre | None] = [None] * batch_size
         self.fifos = [deque(maxlen=self.recovery.backtrack_horizon) for _ in range(batch_size)]

@@ -20,6 +20,7 @@ class RecoveryTrigger:
         reset_window_after_recovery: clear a rollout's window when it fires.
         backoff_from: count T_recovery's steps from the last recovery's start ("trigger", the paper's) or
             from the policy's resumption after it ("resume": only steps in normal operation count).
+        max_recoveries: the most recoveries a rollout fires in its episode; 0: no limit (the paper's).
     """
 
     def __init__(
@@ -30,6 +31,7 @@ class RecoveryTrigger:
         initial_interval: int,
         reset_window_after_recovery: bool = True,
         backoff_from: str = "trigger",
+        max_recoveries: int = 0,
     ):
         self.threshold = threshold
         self.window = window
@@ -40,6 +42,8 @@ class RecoveryTrigger:
         self.backoff_from = backoff_from
         self.since_recovery = np.zeros(num_rollouts, dtype=np.int64)  # steps counted since the last recovery
         self.decision_sums = np.zeros(num_rollouts)
+        self.max_recoveries = max_recoveries
+        self.fired = np.zeros(num_rollouts, dtype=np.int64)  # recoveries fired so far, per rollout
 
     @property
     def window_sum(self) -> np.ndarray:
@@ -62,7 +66,10 @@ class RecoveryTrigger:
         self.counts[rows] += 1
         self.decision_sums = self.window_sum  # what the test saw (the window may be cleared below)
         fire = active & (self.decision_sums > self.threshold) & (self.since_recovery > self.interval)
+        if self.max_recoveries > 0:
+            fire &= self.fired < self.max_recoveries
         fired = np.flatnonzero(fire)
+        self.fired[fired] += 1
         self.interval[fired] *= 2
         self.since_recovery[fired] = 0
         # "resume": a step counts once the rollout is back in normal operation (the firing step starts the

@@ -16,6 +16,7 @@ from lerobot.utils.constants import OBS_ENV_STATE, OBS_IMAGE, OBS_STATE
 import lerobot_ivmc.envs.metaworld as mw
 from lerobot_ivmc.envs.metaworld.configuration import SeededMetaworldEnvConfig
 from lerobot_ivmc.envs.metaworld.env import SeededMetaworldEnv
+from lerobot_ivmc.envs.metaworld.framing import task_workspace
 from lerobot_ivmc.envs.metaworld.scenes import scene_key
 
 TASK = "pick-place-v3"
@@ -79,6 +80,32 @@ def test_the_lean_style_draws_nearly_the_flat_frames_and_leaves_the_physics_alon
     np.testing.assert_array_equal(np.stack(states["flat"]), np.stack(states["lean"]))
     difference = np.abs(np.stack(frames["flat"]).astype(int) - np.stack(frames["lean"]))
     assert 0 < difference.mean() < 2  # grey levels: edges of the arm move by about a pixel
+
+
+def test_the_framed_style_zooms_on_the_workspace_and_leaves_the_physics_alone() -> None:
+    """ "framed" narrows the camera onto the task's workspace box (every corner projects into the frame)
+    and changes nothing but the camera."""
+    envs = {style: SeededMetaworldEnv(TASK, render_style=style) for style in ("flat", "framed")}
+    try:
+        observations = {style: env.reset(seed=4)[0] for style, env in envs.items()}
+        model, data = envs["framed"].raw_env.model, envs["framed"].raw_env.data
+        camera = model.camera("corner2").id
+        assert model.cam_fovy[camera] < 0.6 * envs["flat"].raw_env.model.cam_fovy[camera]
+        low, high = task_workspace(envs["framed"].raw_env)
+        rotation, position = data.cam_xmat[camera].reshape(3, 3), data.cam_xpos[camera]
+        corners = np.array(
+            [[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])]
+        )
+        offsets = (corners - position) @ rotation
+        tangents = np.abs(offsets[:, :2] / -offsets[:, 2:])
+        assert tangents.max() == pytest.approx(np.tan(np.radians(model.cam_fovy[camera]) / 2))
+        np.testing.assert_array_equal(
+            observations["flat"]["environment_state"], observations["framed"]["environment_state"]
+        )
+        assert not np.array_equal(observations["flat"]["pixels"], observations["framed"]["pixels"])
+    finally:
+        for env in envs.values():
+            env.close()
 
 
 def test_the_scripted_policy_succeeds_and_success_ends_the_episode() -> None:

@@ -66,9 +66,18 @@ def test_the_style_survives_pickling_for_async_vector_envs():
 
 
 def test_an_unknown_style_is_refused_naming_the_styles():
-    styles = r"\('fetch', 'fast', 'flat', 'lean'\)"
+    styles = r"\('fetch', 'fast', 'flat', 'lean', 'framed'\)"
     with pytest.raises(ValueError, match=rf"Unknown render_style 'pretty'; choose one of {styles}"):
         make_task_env("push", render_style="pretty")
     with pytest.raises(ValueError, match=r"env.render_style 'pretty'"):
         IvmcEnv(task="push", render_style="pretty")
-    assert set(RENDER_STYLES) == {"fetch", "fast", "flat", "lean"}
+    assert set(RENDER_STYLES) == {"fetch", "fast", "flat", "lean", "framed"}
+
+
+def test_the_framed_style_is_refused_by_the_fetch_tasks_naming_the_others():
+    """Framing is MetaWorld's (the Fetch camera is framed on its table): a Fetch env never ignores it."""
+    others = r"\('fetch', 'fast', 'flat', 'lean'\)"
+    with pytest.raises(ValueError, match=rf"env.render_style 'framed' frames .*choose one of {others}"):
+        IvmcEnv(task="push", render_style="framed")
+    with pytest.raises(ValueError, match=r"render_style 'framed'"):
+        make_task_env("push", render_style="framed")

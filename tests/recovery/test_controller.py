@@ -296,3 +296,19 @@ def test_min_unc_without_foresight_head_names_the_command() -> None:
         )
     with pytest.raises(ValueError, match="recovery.mode"):
         RecoveryConfig(mode="pray")
+
+
+@pytest.mark.parametrize("max_recoveries, expected", [(0, 4), (1, 1)])
+def test_max_recoveries_limits_an_episodes_recoveries(max_recoveries: int, expected: int) -> None:
+    """The policy stays uncertain at every step: without a limit retry fires again after each backoff (T = 2,
+    4, 8, 16: steps 3, 8, 17 and 34), with `--recovery.max_recoveries=1` once, and the policy acts from then
+    on."""
+    policy = scripted_policy([1.0], move=[0.0, 0.3, 0.0])
+    cfg = RecoveryConfig(mode="retry", window=1, initial_interval=2, max_recoveries=max_recoveries)
+    controller = IntrospectiveController(
+        policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS, embodiment=FETCH_EMBODIMENT
+    )
+    run_episode(controller, steps=40)
+    assert len(controller.traces[-1].events[0]) == expected
+    with pytest.raises(ValueError, match="max_recoveries must be >= 0"):
+        RecoveryConfig(mode="retry", max_recoveries=-1)

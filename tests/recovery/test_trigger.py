@@ -66,3 +66,14 @@ def test_backoff_from_resume_counts_only_the_steps_after_the_manoeuvre() -> None
     # From the resumption: three normal steps first (steps 6, 7 and 8: 3 > 2).
     resume = RecoveryTrigger(1, 0.5, 1, initial_interval=1, backoff_from="resume")
     assert run(resume, stream, active)[:2] == [2, 9]
+
+
+def test_max_recoveries_stops_firing_after_the_limit_per_rollout() -> None:
+    # Every step above C and T = 0: unlimited, a rollout fires at every step from step 1; with a limit of 2
+    # it fires twice and then never, while the other rollout keeps its own count.
+    assert run(RecoveryTrigger(1, 0.5, 1, initial_interval=0), [1.0] * 5) == [1, 2, 3, 4]
+    limited = RecoveryTrigger(2, 0.5, 1, initial_interval=0, max_recoveries=2)
+    streams = [[1.0, 0.0]] * 4 + [[1.0, 1.0]] * 3
+    fires = [limited.update(np.array(u), np.array([True, True])).tolist() for u in streams]
+    assert [row[0] for row in fires] == [False, True, True, False, False, False, False]
+    assert [row[1] for row in fires] == [False] * 4 + [True, True, False]

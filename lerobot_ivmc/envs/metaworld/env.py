@@ -6,6 +6,7 @@ for this plugin (docs/metaworld.md):
 - `reset(seed)` fixes the scene: MetaWorld's own draw seeded from (split, seed) (`scenes.scene_key`).
 - the camera image is drawn at `image_size` into a buffer of that size in a render style, instead of
   480 x 480 frames with MSAA, shadows and reflections; `render()` draws video frames at `render_size`.
+  The `framed` style also frames the camera on the task's workspace (`framing.py`).
 - the observation adds `environment_state`, MetaWorld's 39-D state (hand, gripper, objects, goal).
 - a step past success does not reset the env itself (LeRobot's vector env autoresets), and `info` carries
   the milestones the plugin's evaluation reads.
@@ -33,9 +34,10 @@ from lerobot_ivmc.envs.metaworld.env_state import (  # noqa: E402
     OBJECT_POSITION,
     STATE_DIM,
 )
+from lerobot_ivmc.envs.metaworld.framing import frame_camera, task_workspace  # noqa: E402
 from lerobot_ivmc.envs.metaworld.scenes import scene_key  # noqa: E402
 from lerobot_ivmc.envs.offscreen import StyledRenderers  # noqa: E402
-from lerobot_ivmc.envs.render_styles import check_render_style  # noqa: E402
+from lerobot_ivmc.envs.render_styles import RENDER_STYLES, check_render_style  # noqa: E402
 
 require_metaworld()
 
@@ -94,6 +96,8 @@ class SeededMetaworldEnv(MetaworldEnv):
             }
         )
         scene_key(split, 0)  # refuses an unknown split
+        if RENDER_STYLES[render_style].framed:
+            frame_camera(self._env.model, self._env.data, camera_name, *task_workspace(self._env))
         self.renderers = StyledRenderers(self._env.model, render_style)
         self._succeeded = False
         self._steps = 0
