@@ -66,7 +66,7 @@ class CollectConfig:
         if self.split not in SPLITS:
             raise ValueError(f"Unknown split {self.split!r}; choose one of {SPLITS}.")
         check_image_size("image_size", self.image_size)
-        check_render_style("render_style", self.render_style)
+        check_render_style("render_style", self.render_style, framing=suite.name == "metaworld")
         if self.num_workers < 0:
             raise ValueError(f"num_workers must be >= 0, got {self.num_workers}.")
         if self.seed < 0:

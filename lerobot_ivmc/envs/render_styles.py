@@ -60,7 +60,7 @@ def check_render_style(name: str, style: Any, framing: bool = True) -> str:
     if not framing and RENDER_STYLES[style].framed:
         others = tuple(key for key, value in RENDER_STYLES.items() if not value.framed)
         raise ValueError(
-            f"{name} {style!r} frames a MetaWorld task's workspace; this env's camera is framed already: "
-            f"choose one of {others}."
+            f"{name} {style!r} frames a MetaWorld task's workspace; this suite cannot frame its camera (the "
+            f"Fetch tasks' is framed on the table already): choose one of {others}."
         )
     return style

@@ -82,23 +82,31 @@ def test_the_lean_style_draws_nearly_the_flat_frames_and_leaves_the_physics_alon
     assert 0 < difference.mean() < 2  # grey levels: edges of the arm move by about a pixel
 
 
+def camera_view(env: SeededMetaworldEnv, points: np.ndarray) -> tuple[np.ndarray, float]:
+    """(N, 2) tangents right and up of `points` (world) seen from corner2 as the env's data has it, and the
+    tangent of half its field of view."""
+    model, data = env.raw_env.model, env.raw_env.data
+    camera = model.camera("corner2").id
+    offsets = (points - data.cam_xpos[camera]) @ data.cam_xmat[camera].reshape(3, 3)
+    return offsets[:, :2] / -offsets[:, 2:], float(np.tan(np.radians(model.cam_fovy[camera]) / 2))
+
+
 def test_the_framed_style_zooms_on_the_workspace_and_leaves_the_physics_alone() -> None:
-    """ "framed" narrows the camera onto the task's workspace box (every corner projects into the frame)
-    and changes nothing but the camera."""
+    """ "framed" turns corner2 to the centre of the task's workspace box and narrows it until the box just
+    fits; it changes nothing but the camera."""
     envs = {style: SeededMetaworldEnv(TASK, render_style=style) for style in ("flat", "framed")}
     try:
         observations = {style: env.reset(seed=4)[0] for style, env in envs.items()}
-        model, data = envs["framed"].raw_env.model, envs["framed"].raw_env.data
-        camera = model.camera("corner2").id
-        assert model.cam_fovy[camera] < 0.6 * envs["flat"].raw_env.model.cam_fovy[camera]
         low, high = task_workspace(envs["framed"].raw_env)
-        rotation, position = data.cam_xmat[camera].reshape(3, 3), data.cam_xpos[camera]
         corners = np.array(
             [[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])]
         )
-        offsets = (corners - position) @ rotation
-        tangents = np.abs(offsets[:, :2] / -offsets[:, 2:])
-        assert tangents.max() == pytest.approx(np.tan(np.radians(model.cam_fovy[camera]) / 2))
+        centre, half_view = camera_view(envs["framed"], ((low + high) / 2)[None])
+        np.testing.assert_allclose(centre, 0.0, atol=1e-9)  # the box's centre on the camera's axis
+        tangents, _ = camera_view(envs["framed"], corners)
+        assert np.abs(tangents).max() == pytest.approx(half_view)  # the farthest corner at the frame's edge
+        flat_tangents, flat_half_view = camera_view(envs["flat"], corners)
+        assert half_view < 0.6 * flat_half_view and np.abs(flat_tangents).max() < flat_half_view
         np.testing.assert_array_equal(
             observations["flat"]["environment_state"], observations["framed"]["environment_state"]
         )
@@ -106,6 +114,18 @@ def test_the_framed_style_zooms_on_the_workspace_and_leaves_the_physics_alone() 
     finally:
         for env in envs.values():
             env.close()
+
+
+def test_framing_reads_where_scenes_are_drawn_not_a_goal_space_of_the_hands_whole_range() -> None:
+    """drawer-open-v3's `goal_space` is the hand's whole range; its framed view still narrows corner2."""
+    env = SeededMetaworldEnv("drawer-open-v3", render_style="framed")
+    try:
+        assert (np.asarray(env.raw_env.goal_space.high) - env.raw_env.goal_space.low).min() > 0.3
+        env.reset(seed=0)
+        _, half_view = camera_view(env, np.zeros((1, 3)))
+        assert half_view < np.tan(np.radians(45) / 2)  # corner2: 60 degrees
+    finally:
+        env.close()
 
 
 def test_the_scripted_policy_succeeds_and_success_ends_the_episode() -> None:
