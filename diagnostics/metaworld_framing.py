@@ -30,12 +30,18 @@ def in_frame(data: mujoco.MjData, camera_id: int, fovy: float, point: np.ndarray
     return bool(np.abs(offset[:2] / -offset[2]).max() <= np.tan(np.radians(fovy) / 2))
 
 
+def field_of_view(env: SeededMetaworldEnv) -> float:
+    """The camera's vertical field of view, degrees."""
+    model = env.raw_env.model
+    return float(model.cam_fovy[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, CAMERA)])
+
+
 def coverage(task: str, style: str, episodes: int) -> tuple[float, dict[str, float]]:
     """The camera's field of view (degrees) and, per part, the share of scripted steps it is in frame."""
     env = SeededMetaworldEnv(task, split="train", terminate_on_success=False, render_style=style)
-    model, data = env.raw_env.model, env.raw_env.data
-    camera_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, CAMERA)
-    fovy = float(model.cam_fovy[camera_id])
+    data = env.raw_env.data
+    camera_id = mujoco.mj_name2id(env.raw_env.model, mujoco.mjtObj.mjOBJ_CAMERA, CAMERA)
+    fovy = field_of_view(env)
     inside = {"hand": [], "object": [], "goal": []}
     for seed in range(episodes):
         observation, _ = env.reset(seed=seed)
@@ -62,7 +68,9 @@ def main() -> None:
     steps = f"{DEMO_EPISODE_STEPS} steps, noise {NOISE}"
     print(f"{args.episodes} scripted episodes a task ({steps}); the share of their steps in frame:")
     for task in args.tasks:
-        flat_fovy, _ = coverage(task, "flat", 1)
+        flat = SeededMetaworldEnv(task, render_style="flat")  # corner2 as LeRobot places it
+        flat_fovy = field_of_view(flat)
+        flat.close()
         fovy, shares = coverage(task, "framed", args.episodes)
         zoom = np.tan(np.radians(flat_fovy) / 2) / np.tan(np.radians(fovy) / 2)
         parts = ", ".join(f"{part} {100 * share:.1f}%" for part, share in shares.items())
