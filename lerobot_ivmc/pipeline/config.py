@@ -15,7 +15,7 @@ from pathlib import Path
 from lerobot_ivmc.datasets.demo_suites import DemoSuite, suite_of
 from lerobot_ivmc.datasets.record_config import RecordDemosConfig
 from lerobot_ivmc.policies.vmc.configuration_vmc import VMCConfig
-from lerobot_ivmc.recovery.config import RANDOM_STREAMS, RECOVERY_MODES
+from lerobot_ivmc.recovery.config import RANDOM_STREAMS, RECOVERY_MODES, TASK_FREE_MODES
 from lerobot_ivmc.recovery.foresight_training import ForesightConfig
 from lerobot_ivmc.recovery.threshold import THRESHOLD_METHODS, conformal_min_successes
 
@@ -225,6 +225,10 @@ class PipelineConfig:
             beyond the paper, "anchor" (a policy trained with the goal head; the Fetch tasks), "retry" and
             "reach" (no task knowledge), and "anchor_control" (anchor's planner fired from the first step
             the trigger may fire: `--recovery.threshold=0`).
+        recovery_choice: modes of `recovery_modes` that know no task, among which each chain chooses on
+            validation scenes: each runs on the threshold's validation scenes, and the one that rescues
+            most of them net of those it loses (ties: fewer lost, then the listed order) gives the row
+            "chosen" its test episodes (`pipeline/recovery_choice.py`). Empty: no choice.
         fig3: the Fig. 3 evaluation (BVMC without recovery, many test episodes) and detection metrics.
         regime: the data-budget rule (off unless `--regime.demo_budgets` or `--regime.train_steps` lists
             budgets).
@@ -252,6 +256,7 @@ class PipelineConfig:
     threshold: ThresholdStageConfig = field(default_factory=ThresholdStageConfig)
     eval: EpisodesConfig = field(default_factory=EpisodesConfig)
     recovery_modes: list[str] = field(default_factory=lambda: list(DEFAULT_MODES))
+    recovery_choice: list[str] = field(default_factory=list)
     fig3: EpisodesConfig = field(default_factory=lambda: EpisodesConfig(n_episodes=800))
     regime: RegimeConfig = field(default_factory=RegimeConfig)
     executor: ExecutorConfig = field(default_factory=ExecutorConfig)
@@ -294,6 +299,7 @@ class PipelineConfig:
         bad_modes = [m for m in self.recovery_modes if m not in STUDY_ROWS]
         if bad_modes or not self.recovery_modes:
             raise ValueError(f"--recovery_modes must be taken from {STUDY_ROWS}, got {self.recovery_modes}.")
+        self.validate_recovery_choice()
         if self.anchor_rows and self.train.policy.goal_head is False:
             raise ValueError(
                 f"--recovery_modes: {', '.join(self.anchor_rows)} read the policy's goal head: drop "
@@ -337,6 +343,24 @@ class PipelineConfig:
         ):
             if value <= 0:
                 raise ValueError(f"--{name} must be positive, got {value}.")
+
+    def validate_recovery_choice(self) -> None:
+        """Refuse a choice the chosen row could not be measured for: candidates that know a task, that
+        have no test row, or a choice without BVMC's own row to count rescues against."""
+        choice = self.recovery_choice
+        if not choice:
+            return
+        if any(m not in TASK_FREE_MODES for m in choice) or len(set(choice)) != len(choice):
+            raise ValueError(
+                f"--recovery_choice chooses among distinct modes that know no task, {TASK_FREE_MODES}; "
+                f"got {choice}."
+            )
+        missing = [m for m in [*choice, "none"] if m not in self.recovery_modes]
+        if missing:
+            raise ValueError(
+                f"--recovery_choice needs test rows of its modes and of BVMC without recovery: add {missing} "
+                "to --recovery_modes."
+            )
 
     def validate_regime(self) -> None:
         """Refuse budgets and ranges the data-budget rule cannot use."""

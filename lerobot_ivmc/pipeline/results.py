@@ -16,6 +16,7 @@ from lerobot_ivmc.evaluation.perception_check import DRIVERS as PERCEPTION_DRIVE
 from lerobot_ivmc.evaluation.success_by_uncertainty import most_negative_rho
 from lerobot_ivmc.pipeline.config import POLICY_TYPES, PipelineConfig
 from lerobot_ivmc.pipeline.paper_table import PAPER_TABLE
+from lerobot_ivmc.pipeline.recovery_choice import CHOSEN, chain_choice
 from lerobot_ivmc.pipeline.runner import StageResult
 from lerobot_ivmc.pipeline.seed_pool import WITHOUT_RECOVERY, spread_over_seeds, study_setup
 from lerobot_ivmc.pipeline.stage_names import (
@@ -79,7 +80,17 @@ def table_rows(cfg: PipelineConfig, stages: list[Stage], fcs: list[int]) -> list
                 if other in infos and other != method
             }
             rows.append(row)
+        if cfg.recovery_choice:
+            rows.append(chosen_row(rows, chain_choice(cfg, stages, fc, None), fc))
     return rows
+
+
+def chosen_row(rows: list[dict], choice: dict, fc: int) -> dict:
+    """The row "chosen": the test row of the mode `choice` chose on validation scenes, with the choice."""
+    mode = choice["chosen_mode"]
+    source = next(r for r in rows if r["num_fc_layers"] == fc and r.get("method") == mode)
+    label = f"{METHOD_LABELS[CHOSEN]}: {mode}"
+    return {**source, "method": CHOSEN, "label": label, "paper": {}, "choice": choice}
 
 
 def subtask_rates(info: dict) -> dict:
@@ -125,6 +136,11 @@ def training_seed_rows(
                 bvmc = load_eval_info(stage_output(stages, eval_row_stage(fc, "none", extra)))
                 success = list(row["subtasks"])[-1]
                 recovery_rows.append({**row, "method": method, "rescue": rescue_record(bvmc, info, success)})
+        if cfg.recovery_choice:
+            for train_seed in seeds:
+                extra = None if train_seed == cfg.train.seed else train_seed
+                own = [r for r in recovery_rows if r["num_fc_layers"] == fc and r["train_seed"] == train_seed]
+                recovery_rows.append(chosen_row(own, chain_choice(cfg, stages, fc, extra), fc))
     return rows, recovery_rows
 
 

@@ -45,6 +45,12 @@ def eval_stage_name(policy_type: str, fc: int, mode: str | None, train_seed: int
     return f"eval_{policy_type}_fc{fc}" + (f"_{mode}" if mode else "") + seed_suffix(train_seed)
 
 
+def choice_stage_name(fc: int, mode: str, train_seed: int | None = None) -> str:
+    """`choice_bvmc_fc1_retry` (`..._seed2000` of an extra seed): a `--recovery_choice` mode on validation
+    scenes."""
+    return f"choice_bvmc_fc{fc}_{mode}" + seed_suffix(train_seed)
+
+
 def fig3_stage_name(cfg: PipelineConfig, fc: int, train_seed: int | None = None) -> str:
     """The stage whose episodes give Fig. 3 and the detection metrics: BVMC without recovery on test
     scenes; the Table I row itself when it has as many episodes, else a stage of its own."""

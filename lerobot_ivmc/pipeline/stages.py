@@ -25,6 +25,7 @@ from lerobot_ivmc.pipeline.config import CONTROL_ROWS, POLICY_TYPES, PipelineCon
 from lerobot_ivmc.pipeline.stage_names import (
     COLLECT_STAGE,
     chain_folder,
+    choice_stage_name,
     detect_stage_name,
     eval_stage_name,
     fig3_stage_name,
@@ -264,10 +265,11 @@ def chain_stages(cfg: PipelineConfig, fc: int, train_seed: int | None, chain: Ch
     for stage in [foresight, *rows]:
         if threshold.name not in stage.depends:
             stage.after = list(gates)
-    stages += [foresight, threshold, *rows]
+    choices = choice_stages(cfg, fc, train_seed, chain, threshold)
+    stages += [foresight, threshold, *rows, *choices]
     detect = detect_stage(cfg, fc, train_seed, stages, threshold)
     # The chain's last stage in every order, so that its end is the chain's (the results are written then).
-    detect.after = [row.name for row in rows if row.name not in detect.depends]
+    detect.after = [stage.name for stage in [*rows, *choices] if stage.name not in detect.depends]
     return [*stages, detect]
 
 
@@ -389,6 +391,32 @@ def row_stages(
             )
         )
     return stages
+
+
+def choice_stages(
+    cfg: PipelineConfig, fc: int, train_seed: int | None, chain: ChainFlags, threshold: Stage
+) -> list[Stage]:
+    """Each `--recovery_choice` mode on the threshold's validation scenes, with the threshold's checkpoint:
+    what the chosen row is chosen by (`recovery_choice.py`)."""
+    th = cfg.threshold
+    folder = cfg.root.resolve() / "choice" / chain_folder(fc, train_seed)
+    return [
+        eval_stage(
+            choice_stage_name(fc, mode, train_seed),
+            threshold.output / PRETRAINED_MODEL_DIR,
+            folder / mode,
+            chain.eval_env_flags,
+            th.n_episodes,
+            th.batch_size,
+            f"--seed={cfg.seed}",
+            mode,
+            threshold.name,
+            split="val",
+            recovery_flags=bvmc_row_flags(mode, chain, []),
+            task=cfg.task,
+        )
+        for mode in cfg.recovery_choice
+    ]
 
 
 def bvmc_row_flags(row: str | None, chain: ChainFlags, anchor_flags: list[str]) -> list[str]:

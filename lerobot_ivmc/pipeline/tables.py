@@ -13,6 +13,7 @@ METHOD_LABELS = {
     "anchor_control": "BVMC + anchor at threshold 0 (anchor's control: fired from the first step it may)",
     "retry": "BVMC + retry (beyond the paper, no task knowledge)",
     "reach": "BVMC + reach (beyond the paper, no task knowledge)",
+    "chosen": "BVMC + the mode that knows no task chosen on validation scenes",
 }
 
 
@@ -26,7 +27,7 @@ def training_seed_table(rows: list[dict], summary: list[dict]) -> str:
     ]
     for row in rows:
         cells = [f"{row['subtasks'][s]['rate']:.1f} +- {row['subtasks'][s]['stderr']:.1f}" for s in subtasks]
-        label = METHOD_LABELS[row["method"]] if "method" in row else row["model"]
+        label = row.get("label") or (METHOD_LABELS[row["method"]] if "method" in row else row["model"])
         lines.append(
             f"| {label} | {row['num_fc_layers']} | {row['train_seed']} | " + " | ".join(cells) + " |"
         )

@@ -20,6 +20,8 @@ from lerobot_ivmc.recovery.strategy_settings import (
 # rand and init: the paper's baselines ("Baselines for Visuomotor Control Recovery"); beyond the paper, anchor
 # (a planner for the Fetch tasks on the policy's beliefs), retry and reach (they know no task).
 RECOVERY_MODES = ("none", "rand", "init", "min_unc", "anchor", "retry", "reach")
+# The recovery modes that use no task-specific code: only the robot's embodiment, the policy and its heads.
+TASK_FREE_MODES = ("rand", "init", "min_unc", "retry", "reach")
 RANDOM_STREAMS = ("batch", "episode")
 BACKOFF_FROM = ("trigger", "resume")
 

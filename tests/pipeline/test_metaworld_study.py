@@ -78,8 +78,15 @@ def test_the_metaworld_smoke_study_runs_end_to_end(tmp_path: Path) -> None:
         "min_unc",
         "retry",
         "reach",
+        "chosen",
     ]
     assert all(list(row["subtasks"]) == ["success"] for row in results["rows"])
+    # The row "chosen" is the test row of the candidate that rescued most on validation scenes.
+    chosen = results["rows"][-1]
+    assert list(chosen["choice"]["validation"]) == ["init", "retry"]
+    source = next(row for row in results["rows"] if row["method"] == chosen["choice"]["chosen_mode"])
+    assert chosen["subtasks"] == source["subtasks"] and chosen["rescue"] == source["rescue"]
+    assert (out / "choice" / "fc1" / "retry" / "eval_info.json").exists()
     record = out / "threshold" / "fc1" / "pretrained_model" / "recovery_threshold.json"
     assert json.loads(record.read_text())["task"] == "pick-place-v3"
     assert (out / "results" / "fig3_fc1.png").exists()

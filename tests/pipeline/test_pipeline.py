@@ -152,6 +152,10 @@ def test_extra_training_seeds_add_stages_and_leave_the_study_s_own_untouched(tmp
         "eval_bvmc_fc1_anchor_seed2000",
         "eval_bvmc_fc1_anchor_control_seed2000",
         "eval_bvmc_fc1_retry_seed2000",
+        "choice_bvmc_fc1_rand_seed2000",
+        "choice_bvmc_fc1_init_seed2000",
+        "choice_bvmc_fc1_min_unc_seed2000",
+        "choice_bvmc_fc1_retry_seed2000",
         "detect_fc1_seed2000",
     ]
     # An extra seed's policies are checked and reported, never stop the study.
@@ -219,6 +223,10 @@ def test_bad_input_is_refused_with_what_to_do(capsys: pytest.CaptureFixture) -> 
         "--task=push", "--preset=smoke", "--train.extra_seeds=[7]", "--recovery_modes=[min_unc]"
     )
     assert "needs 'none' in --recovery_modes" in no_plain_bvmc
+    knows_task = refusal("--task=push", "--preset=lite", "--recovery_choice=[retry,anchor]")
+    assert "--recovery_choice chooses among distinct modes that know no task" in knows_task
+    no_row = refusal("--task=push", "--preset=lite", "--recovery_choice=[retry,reach]")
+    assert "add ['reach'] to --recovery_modes" in no_row
     no_goal_head = refusal("--task=push", "--preset=lite", "--train.policy.goal_head=false")
     assert "the rows ['anchor', 'anchor_control']" in no_goal_head
     # Values a late stage would refuse are refused before the study starts (not hours in).

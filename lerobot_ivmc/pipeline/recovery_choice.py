@@ -1,0 +1,45 @@
+"""The recovery chosen on validation scenes (`--recovery_choice`): no single mode that knows no task rescues
+on every task (retry on the Fetch tasks, init on door-open-v3), so each chain chooses among them as it
+chooses its threshold, on validation scenes only, and the row "chosen" reports the chosen mode's test
+episodes. The rule: most validation failures rescued net of the successes lost; ties go to fewer lost, then
+to the mode listed first."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from lerobot_ivmc.constants import EVAL_INFO_FILE
+from lerobot_ivmc.evaluation.compare import rescue_record
+from lerobot_ivmc.pipeline.config import PipelineConfig
+from lerobot_ivmc.pipeline.stage_names import choice_stage_name, threshold_stage_name
+from lerobot_ivmc.pipeline.stages import Stage, stage_output
+
+CHOSEN = "chosen"
+
+
+def choose_mode(validation: dict[str, dict]) -> str:
+    """The rule on each candidate's validation rescue record (`rescue_record`), in the listed order."""
+    order = list(validation)
+
+    def merit(mode: str) -> tuple[int, int, int]:
+        record = validation[mode]
+        return record["rescued"] - record["lost"], -record["lost"], -order.index(mode)
+
+    return max(order, key=merit)
+
+
+def chain_choice(cfg: PipelineConfig, stages: list[Stage], fc: int, train_seed: int | None) -> dict:
+    """One chain's choice: each candidate's rescue of the threshold's validation failures, and the mode
+    chosen (`train_seed` None: the main seed)."""
+    plain = load_info(stage_output(stages, threshold_stage_name(fc, train_seed)))
+    success = list(plain["aggregated_subtasks"])[-1]
+    validation = {}
+    for mode in cfg.recovery_choice:
+        run = load_info(stage_output(stages, choice_stage_name(fc, mode, train_seed)))
+        validation[mode] = rescue_record(plain, run, success)
+    return {"chosen_mode": choose_mode(validation), "validation": validation}
+
+
+def load_info(folder: Path) -> dict:
+    return json.loads((folder / EVAL_INFO_FILE).read_text())
