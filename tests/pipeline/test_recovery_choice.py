@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 from lerobot_ivmc.pipeline.recovery_choice import choose_mode
+from lerobot_ivmc.pipeline.results import training_seed_rows
+from lerobot_ivmc.pipeline.seed_pool import spread_over_seeds
 from lerobot_ivmc.pipeline.stages import build_stages
 from lerobot_ivmc.pipeline.study import parse_config
 
@@ -41,3 +44,70 @@ def test_each_candidate_runs_on_the_threshold_s_validation_scenes_with_its_check
     # Without the flag a study has no choice stage (the studies recorded before it keep their stages).
     plain = parse_config(["--task=door-open-v3", "--preset=metaworld", "--recovery_choice=[]"])
     assert not [s for s in build_stages(plain) if s.name.startswith("choice_")]
+
+
+def eval_info(split: str, outcomes: list[bool], threshold: float = 1.0) -> dict:
+    """An `eval_info.json` of door-open-v3 over scenes 0..n-1 with these successes."""
+    n = len(outcomes)
+    rate = 100.0 * sum(outcomes) / n
+    return {
+        "run": {"task": "door-open-v3", "split": split},
+        "per_episode": [
+            {"seed": i, "success": ok, "subtasks": {"success": ok}, "max_uncertainty": 0.0 if ok else 2.0}
+            for i, ok in enumerate(outcomes)
+        ],
+        "aggregated_subtasks": {"success": {"pc": rate, "stderr": 1.0, "n": n}},
+        "recovery": {"threshold": threshold, "num_recoveries": 0, "episodes_with_recovery": 0},
+    }
+
+
+def test_each_seed_s_chosen_row_is_its_choice_s_test_row_and_pools_over_the_seeds(tmp_path: Path) -> None:
+    """Seed 1000's validation favours init, seed 2000's retry: each seed's "chosen" row carries its own
+    choice's test episodes, and the pooled rescue sums those, not one mode's."""
+    cfg = parse_config(
+        [
+            "--task=door-open-v3",
+            "--preset=metaworld",
+            f"--output_dir={tmp_path}",
+            "--recovery_choice=[init,retry]",
+            "--train.extra_seeds=[2000]",
+        ]
+    )
+    stages = build_stages(cfg)
+    fail4 = [False] * 4 + [True] * 6  # scenes 0-3 failed without recovery
+    # validation: (init, retry) outcomes per seed; test: each mode's outcomes per seed
+    validation = {
+        1000: ([True] * 3 + [False] + [True] * 6, [True] + [False] * 3 + [True] * 6),
+        2000: ([False] * 4 + [True] * 6, [True] * 2 + [False] * 2 + [True] * 6),
+    }
+    test = {
+        ("init", 1000): [True, True, False, False] + [True] * 6,
+        ("retry", 1000): [True] * 3 + [False] + [True] * 6,  # (never chosen: seed 1000 chooses init)
+        ("init", 2000): [False] * 4 + [True] * 6,
+        ("retry", 2000): [True] + [False] * 3 + [True] * 6,
+    }
+    for stage in stages:
+        name, out = stage.name, stage.output
+        seed = 2000 if name.endswith("_seed2000") else 1000
+        if name.startswith("threshold_fc1"):
+            info = eval_info("val", fail4)
+        elif name.startswith("choice_bvmc_fc1_"):
+            info = eval_info("val", validation[seed][0 if "_init" in name else 1])
+        elif name.startswith("eval_"):
+            mode = next((m for m in ("init", "retry") if f"_{m}" in name), None)
+            info = eval_info("test", test[mode, seed] if mode else fail4)
+        else:
+            continue
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "eval_info.json").write_text(json.dumps(info))
+    ended = {f"detect_fc1{sfx}" for sfx in ("", "_seed2000")}
+    _, recovery_rows = training_seed_rows(cfg, stages, [1], ended)
+    chosen = {row["train_seed"]: row for row in recovery_rows if row["method"] == "chosen"}
+    assert {seed: row["choice"]["chosen_mode"] for seed, row in chosen.items()} == {
+        1000: "init",
+        2000: "retry",
+    }
+    assert chosen[1000]["rescue"]["rescued"] == 2 and chosen[2000]["rescue"]["rescued"] == 1
+    _, pooled = spread_over_seeds([], recovery_rows)
+    pooled_chosen = next(p for p in pooled if p["method"] == "chosen")
+    assert (pooled_chosen["failures"], pooled_chosen["rescued"], pooled_chosen["lost"]) == (8, 3, 0)
