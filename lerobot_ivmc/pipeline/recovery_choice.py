@@ -6,11 +6,7 @@ to the mode listed first."""
 
 from __future__ import annotations
 
-import json
-from pathlib import Path
-
-from lerobot_ivmc.constants import EVAL_INFO_FILE
-from lerobot_ivmc.evaluation.compare import rescue_record
+from lerobot_ivmc.evaluation.compare import load_run, rescue_record
 from lerobot_ivmc.pipeline.config import PipelineConfig
 from lerobot_ivmc.pipeline.stage_names import choice_stage_name, threshold_stage_name
 from lerobot_ivmc.pipeline.stages import Stage, stage_output
@@ -32,14 +28,10 @@ def choose_mode(validation: dict[str, dict]) -> str:
 def chain_choice(cfg: PipelineConfig, stages: list[Stage], fc: int, train_seed: int | None) -> dict:
     """One chain's choice: each candidate's rescue of the threshold's validation failures, and the mode
     chosen (`train_seed` None: the main seed)."""
-    plain = load_info(stage_output(stages, threshold_stage_name(fc, train_seed)))
+    plain = load_run(stage_output(stages, threshold_stage_name(fc, train_seed)))
     success = list(plain["aggregated_subtasks"])[-1]
     validation = {}
     for mode in cfg.recovery_choice:
-        run = load_info(stage_output(stages, choice_stage_name(fc, mode, train_seed)))
+        run = load_run(stage_output(stages, choice_stage_name(fc, mode, train_seed)))
         validation[mode] = rescue_record(plain, run, success)
     return {"chosen_mode": choose_mode(validation), "validation": validation}
-
-
-def load_info(folder: Path) -> dict:
-    return json.loads((folder / EVAL_INFO_FILE).read_text())
