@@ -97,7 +97,7 @@ def rescue_record(bvmc: dict, recovered: dict, milestone: str) -> dict:
 
     Returns:
         failures: scenes the policy failed without recovery; flagged: those of them whose u crossed the
-        recovery run's threshold (where a recovery could start); rescued: failed without recovery,
+        recovery run's threshold (where a recovery could start; None where the runs' u differ in kind); rescued: failed without recovery,
         succeeded with it; lost: the reverse; rescue_rate: (rescued - lost) / failures (None without
         failures); mcnemar_exact_p: the paired test of rescued against lost.
     """
@@ -108,9 +108,18 @@ def rescue_record(bvmc: dict, recovered: dict, milestone: str) -> dict:
     rescued, lost = pair["only_second"], pair["only_first"]
     return {
         "failures": len(failures),
-        "flagged": sum(e["max_uncertainty"] > threshold for e in failures),
+        # Only where both runs' u are on the threshold's scale (a threshold picked for the time-conditioned
+        # score scores the run without recovery it is picked on by the window sum).
+        "flagged": sum(e["max_uncertainty"] > threshold for e in failures)
+        if time_conditioned(bvmc) == time_conditioned(recovered)
+        else None,
         "rescued": rescued,
         "lost": lost,
         "rescue_rate": (rescued - lost) / len(failures) if failures else None,
         "mcnemar_exact_p": pair["mcnemar_exact_p"],
     }
+
+
+def time_conditioned(run: dict) -> bool:
+    """Whether a bvmc run's u and threshold are the time-conditioned score's (`recovery/time_baseline.py`)."""
+    return "time-conditioned" in str(run.get("recovery", {}).get("threshold_source"))

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from lerobot_ivmc.atomic_files import write_json_atomic
 from lerobot_ivmc.constants import EVAL_INFO_FILE
+from lerobot_ivmc.evaluation.compare import time_conditioned
 from lerobot_ivmc.evaluation.detection import auroc, conformal_sweep, metrics_at_threshold, plot_detection
 from lerobot_ivmc.evaluation.traces import TRACES_FILE, load_traces
 from lerobot_ivmc.recovery.threshold import ThresholdRecord, check_finite, conformal_threshold
@@ -60,6 +61,14 @@ def detect(cfg: DetectionConfig) -> dict:
         raise ValueError(
             f"--alpha and --alphas are false-alarm bounds in (0, 1), got {cfg.alpha}, {cfg.alphas}."
         )
+    conditioned = time_conditioned(info)
+    if conditioned != (record.baseline is not None):
+        raise ValueError(
+            f"--eval_dir={cfg.eval_dir} scored its episodes by the "
+            f"{'time-conditioned' if conditioned else 'window-sum'} score, the threshold of "
+            f"{threshold_path} applies to the other: evaluate the checkpoint that holds this threshold, or "
+            "pass its --threshold_path."
+        )
     episodes = info["per_episode"]
     validation_seeds = {e.get("seed") for e in record.episodes} - {None}
     if info["run"]["split"] == record.split and validation_seeds & {e["seed"] for e in episodes}:
@@ -85,6 +94,9 @@ def detect(cfg: DetectionConfig) -> dict:
         "episodes": len(episodes),
         "failures": int(sum(failures)),
         "window": record.window,
+        "score": "max window sum"
+        if record.baseline is None
+        else f"time-conditioned (quantile {record.baseline_quantile})",
         "auroc": auroc(scores, failures),
         "calibration": {
             "split": record.split,

@@ -9,6 +9,7 @@ from pathlib import Path
 from pprint import pformat
 
 import gymnasium as gym
+import numpy as np
 import torch
 from lerobot.configs.eval import EvalPipelineConfig
 from lerobot.envs.configs import EnvConfig
@@ -133,7 +134,7 @@ def evaluate(cfg: IvmcEvalConfig, ignore_stored_threshold: bool = False) -> dict
 def run_evaluation(cfg: IvmcEvalConfig, output_dir: Path, ignore_stored_threshold: bool) -> dict:
     """`evaluate`'s run, in the output folder it holds."""
     is_bayesian = cfg.policy.type == "bvmc"
-    threshold, window, source = None, 0, "none"
+    threshold, window, source, baseline = None, 0, "none", None
     if is_bayesian:
         path = cfg.policy.pretrained_path
         record = ThresholdRecord.load(path) if path and not ignore_stored_threshold else None
@@ -144,6 +145,10 @@ def run_evaluation(cfg: IvmcEvalConfig, output_dir: Path, ignore_stored_threshol
             source = (
                 f"checkpoint ({record.method}{'' if record.alpha is None else f', alpha={record.alpha}'})"
             )
+        # A time-conditioned record's baseline holds for an overriding C too: C is on its scale.
+        if record is not None and record.baseline is not None:
+            baseline = np.asarray(record.baseline)
+            source += f", time-conditioned (quantile {record.baseline_quantile})"
     logger.info(pformat(asdict(cfg)))
     set_seed(cfg.seed)
     env = make_recorded_vector_env(
@@ -166,6 +171,7 @@ def run_evaluation(cfg: IvmcEvalConfig, output_dir: Path, ignore_stored_threshol
             state_stats=feature_stats(loaded.preprocessor, OBS_STATE),
             embodiment=embodiment_of(cfg.env),
             task_traits=task_traits_of(cfg.env),
+            baseline=baseline,
         )
     # Seed again once everything is built: the Monte Carlo masks then do not depend on how many random
     # draws building the policy took (e.g. a checkpoint with or without a foresight head).
@@ -200,7 +206,7 @@ def run_evaluation(cfg: IvmcEvalConfig, output_dir: Path, ignore_stored_threshol
     }
     output_dir.mkdir(parents=True, exist_ok=True)
     if controller is not None:
-        episodes = episode_traces(controller.traces, lengths_per_env, n, window)
+        episodes = episode_traces(controller.traces, lengths_per_env, n, window, baseline)
         add_recovery_results(info, episodes, cfg, threshold, window, source, output_dir)
         if cfg.recovery.mode == "min_unc":
             info["recovery"]["candidate_noise"] = controller.candidate_noise

@@ -1,15 +1,21 @@
 """Picking a bvmc checkpoint's recovery threshold on validation scenes, the library of
 `lerobot-ivmc-threshold` (`scripts/lerobot_ivmc_threshold.py`): the evaluation without recovery, the
-threshold by the paper's argmax or by conformal calibration, and a new checkpoint folder holding the
-threshold record."""
+threshold by the paper's argmax or by conformal calibration, optionally on the time-conditioned score, and a
+new checkpoint folder holding the threshold record."""
 
 import logging
+import math
 import shutil
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from lerobot_ivmc.constants import PRETRAINED_MODEL_DIR
+from lerobot_ivmc.evaluation.detection import auroc
 from lerobot_ivmc.evaluation.eval_subtasks import IvmcEvalConfig, evaluate
+from lerobot_ivmc.evaluation.traces import TRACES_FILE, load_traces
 from lerobot_ivmc.recovery.threshold import (
     DEFAULT_WINDOW,
     THRESHOLD_METHODS,
@@ -17,6 +23,7 @@ from lerobot_ivmc.recovery.threshold import (
     argmax_threshold,
     conformal_threshold,
 )
+from lerobot_ivmc.recovery.time_baseline import normalized_sums, success_baseline
 
 logger = logging.getLogger(__name__)
 
@@ -32,10 +39,17 @@ class ThresholdPipelineConfig(IvmcEvalConfig):
             "conformal": split conformal calibration on the successful episodes only, which bounds the
             episode-level false-alarm rate on successes by `alpha`.
         alpha: the false-alarm bound of the conformal threshold.
+        time_conditioned: pick C for the time-conditioned score (beyond the paper): the window sum over a
+            per-step quantile of the successful validation episodes' window sums, so that a phase where
+            every episode is uncertain raises no alarm (`recovery/time_baseline.py`).
+        quantiles: the baseline's candidate quantiles; the one whose cross-fitted scores best tell the
+            validation failures from the successes (AUROC) is kept.
     """
 
     method: str = "argmax"
     alpha: float = 0.1
+    time_conditioned: bool = False
+    quantiles: list[float] = field(default_factory=lambda: [0.5, 0.75, 0.9, 1.0])
 
 
 def check_inputs(cfg: ThresholdPipelineConfig) -> Path:
@@ -45,6 +59,8 @@ def check_inputs(cfg: ThresholdPipelineConfig) -> Path:
         raise ValueError("Pass --policy.path=<bvmc checkpoint folder>: thresholds apply to bvmc uncertainty.")
     if not 0.0 < cfg.alpha < 1.0:
         raise ValueError(f"--alpha must lie in (0, 1), got {cfg.alpha}.")
+    if cfg.time_conditioned and not (cfg.quantiles and all(0.0 < q <= 1.0 for q in cfg.quantiles)):
+        raise ValueError(f"--quantiles must list quantiles in (0, 1], got {cfg.quantiles}.")
     if cfg.recovery.mode != "none":
         raise ValueError("Thresholds are picked on episodes without recovery: drop --recovery.mode.")
     if cfg.env.split == "test":
@@ -68,6 +84,11 @@ def pick(cfg: ThresholdPipelineConfig) -> ThresholdRecord:
     episodes = info["per_episode"]
     scores = [e["max_uncertainty"] for e in episodes]
     successes = [bool(e["success"]) for e in episodes]
+    baseline, quantile = None, None
+    if cfg.time_conditioned:
+        sums = [trace["window_sum"] for trace in load_traces(Path(cfg.output_dir) / TRACES_FILE)]
+        quantile, baseline, fitted = fit_time_baseline(sums, successes, cfg.recovery.window, cfg.quantiles)
+        scores = fitted.tolist()
     if cfg.method == "conformal":
         threshold = conformal_threshold([u for u, ok in zip(scores, successes, strict=True) if ok], cfg.alpha)
     else:
@@ -81,6 +102,8 @@ def pick(cfg: ThresholdPipelineConfig) -> ThresholdRecord:
         split=cfg.env.split,
         num_samples=cfg.policy.num_samples,
         uncertainty_lambda=cfg.policy.uncertainty_lambda,
+        baseline=None if baseline is None else baseline.tolist(),
+        baseline_quantile=quantile,
         episodes=[
             {"seed": e["seed"], "u": u, "success": ok}
             for e, u, ok in zip(episodes, scores, successes, strict=True)
@@ -89,3 +112,43 @@ def pick(cfg: ThresholdPipelineConfig) -> ThresholdRecord:
     shutil.copytree(source, checkpoint)
     record.save(checkpoint)
     return record
+
+
+def cross_fitted_scores(
+    sums: Sequence[np.ndarray], successes: Sequence[bool], window: int, quantile: float
+) -> np.ndarray:
+    """(E,) each episode's time-conditioned u under a baseline made without it: episodes alternate between
+    two folds, and each fold is scored with the other fold's successes."""
+    ok = np.asarray(successes, dtype=bool)
+    index = np.arange(len(sums))
+    scores = np.empty(len(sums))
+    for fold in (0, 1):
+        base, scored = index[index % 2 == fold], index[index % 2 != fold]
+        baseline = success_baseline([sums[i] for i in base], ok[base], quantile)
+        for i in scored:
+            scores[i] = normalized_sums(sums[i], baseline, window).max()
+    return scores
+
+
+def fit_time_baseline(
+    sums: Sequence[np.ndarray], successes: Sequence[bool], window: int, quantiles: Sequence[float]
+) -> tuple[float, np.ndarray, np.ndarray]:
+    """The time-conditioned score's quantile, baseline and the validation episodes' u.
+
+    Args:
+        sums: per validation episode, its (T_e,) window sums without recovery.
+        successes: per episode, its task success.
+        window: the sliding window's length.
+        quantiles: the candidates.
+
+    Returns:
+        The quantile whose cross-fitted scores have the highest AUROC (ties, or no failure to tell: the
+        first listed), the (T,) baseline from all successes at it, and the (E,) cross-fitted scores, on
+        which C is picked.
+    """
+    failures = ~np.asarray(successes, dtype=bool)
+    fitted = {q: cross_fitted_scores(sums, successes, window, q) for q in quantiles}
+    separation = {q: auroc(scores, failures) for q, scores in fitted.items()}
+    logger.info("Validation AUROC of the cross-fitted time-conditioned score per quantile: %s", separation)
+    best = max(quantiles, key=lambda q: -math.inf if math.isnan(separation[q]) else separation[q])
+    return best, success_baseline(sums, successes, best), fitted[best]

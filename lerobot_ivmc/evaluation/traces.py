@@ -8,13 +8,17 @@ import numpy as np
 
 from lerobot_ivmc.recovery.controller import BatchTrace
 from lerobot_ivmc.recovery.manoeuvres import PHASE_NAMES
-from lerobot_ivmc.recovery.threshold import max_window_sum
+from lerobot_ivmc.recovery.time_baseline import episode_score
 
 TRACES_FILE = "uncertainty_traces.npz"
 
 
 def episode_traces(
-    batches: list[BatchTrace], lengths_per_env: list[list[int]], n_episodes: int, window: int
+    batches: list[BatchTrace],
+    lengths_per_env: list[list[int]],
+    n_episodes: int,
+    window: int,
+    baseline: np.ndarray | None = None,
 ) -> list[dict]:
     """The traces of the evaluated episodes in `eval_policy`'s order (batch-major, then sub-env).
 
@@ -23,10 +27,12 @@ def episode_traces(
         lengths_per_env: per sub-env, the lengths of its seeded episodes (`MilestoneRecorder`).
         n_episodes: episodes evaluated (the last batch may hold extra ones, which are dropped).
         window: the sliding window for u.
+        baseline: (T,) the time-conditioned score's baseline of the threshold, None for the paper's score.
 
     Returns:
         Per episode: "uncertainty", "window_sum", "phase" arrays, "events" and "max_uncertainty" (u, the
-        maximum sliding-window sum of the step uncertainties, whatever the trigger cleared).
+        maximum sliding-window sum of the step uncertainties, or of its time-conditioned score, whatever the
+        trigger cleared).
     """
     episodes = []
     for b, trace in enumerate(batches):
@@ -34,7 +40,7 @@ def episode_traces(
             if len(episodes) == n_episodes:
                 return episodes
             episode = trace.episode(j, lengths_per_env[j][b])
-            episode["max_uncertainty"] = max_window_sum(episode["uncertainty"], window)
+            episode["max_uncertainty"] = episode_score(episode["uncertainty"], window, baseline)
             episodes.append(episode)
     return episodes
 

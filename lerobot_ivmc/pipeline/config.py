@@ -141,12 +141,15 @@ class ForesightStageConfig:
 
 @dataclass
 class ThresholdStageConfig:
-    """`lerobot-ivmc-threshold` on validation scenes: the paper's argmax, or conformal with `alpha`."""
+    """`lerobot-ivmc-threshold` on validation scenes: the paper's argmax, or conformal with `alpha`; with
+    `time_conditioned`, on the time-conditioned score (beyond the paper), which every BVMC row's trigger then
+    compares."""
 
     n_episodes: int = 100
     batch_size: int = 10
     method: str = "argmax"
     alpha: float = 0.1
+    time_conditioned: bool = False
 
 
 @dataclass

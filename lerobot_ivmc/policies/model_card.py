@@ -31,10 +31,11 @@ def model_card_section(config, threshold_record: ThresholdRecord | None) -> str:
     ]
     if threshold_record is not None:
         r = threshold_record
+        score = "" if r.baseline is None else f", time-conditioned at quantile {r.baseline_quantile}"
         lines.append(
-            f"- Recovery threshold C = {r.threshold:.4g} ({r.method}, window {r.window}) picked on "
+            f"- Recovery threshold C = {r.threshold:.4g} ({r.method}, window {r.window}{score}) picked on "
             f"{len(r.episodes)} {r.split} episodes of {r.task}; `lerobot-ivmc-eval --policy.path=<this repo> "
-            "--recovery.mode=<none|rand|init|min_unc|anchor>` reads it."
+            "--recovery.mode=<mode>` reads it."
         )
     elif config.type == "bvmc":
         lines.append("- No recovery threshold yet: pick one with `lerobot-ivmc-threshold`.")

@@ -34,7 +34,8 @@ class BatchTrace:
 
     Attributes:
         uncertainty: per step, (B,) uncertainty of the Monte Carlo pass.
-        window_sum: per step, (B,) the trigger's sliding-window sum (after this step's value).
+        window_sum: per step, (B,) what the trigger compared with C (after this step's value): the
+            sliding-window sum, or its time-conditioned score.
         phase: per step, (B,) manoeuvre phase (`manoeuvres.PHASE_NAMES`).
         events: per rollout, the recoveries it started: step, mode and the window sum that fired.
     """
@@ -98,6 +99,8 @@ class IntrospectiveController(BVMCRolloutWrapper):
         embodiment: the robot: where its grip point and fingers are, its action scale and gripper commands.
         task_traits: what recovery may know of the task (`envs/task_traits.py`; anchor reads it), None
             where nothing is known.
+        baseline: (T,) the per-step baseline of a time-conditioned threshold (`recovery/time_baseline.py`),
+            None for the paper's window sum.
     """
 
     name = "bvmc_introspective"
@@ -115,8 +118,10 @@ class IntrospectiveController(BVMCRolloutWrapper):
         *,
         embodiment: Embodiment,
         task_traits: TaskTraits | None = None,
+        baseline: np.ndarray | None = None,
     ):
         super().__init__(policy)
+        self.baseline = baseline
         self.embodiment = embodiment
         self.task_traits = task_traits
         if recovery.mode != "none" and threshold is None:
@@ -170,6 +175,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
             self.recovery.reset_window_after_recovery,
             self.recovery.backoff_from,
             self.recovery.max_recoveries,
+            self.baseline,
         )
         self.manoeuvres: list[Manoeuvre | None] = [None] * batch_size
         self.fifos = [deque(maxlen=self.recovery.backtrack_horizon) for _ in range(batch_size)]

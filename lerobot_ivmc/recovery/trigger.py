@@ -4,13 +4,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from lerobot_ivmc.recovery.time_baseline import step_scores
+
 
 class RecoveryTrigger:
     """Algorithm 1, lines 4 to 9, for a batch of rollouts that started together.
 
     At every step each rollout in normal operation adds its uncertainty to a sliding window; a recovery
-    fires when the window sum exceeds C and more than T_recovery steps have passed since the last recovery
-    (or the episode's start). Each firing doubles that rollout's T_recovery.
+    fires when the window sum (over the baseline at this step, where one is given) exceeds C and more than
+    T_recovery steps have passed since the last recovery (or the episode's start). Each firing doubles that
+    rollout's T_recovery.
 
     Args:
         num_rollouts: B.
@@ -21,6 +24,8 @@ class RecoveryTrigger:
         backoff_from: count T_recovery's steps from the last recovery's start ("trigger", the paper's) or
             from the policy's resumption after it ("resume": only steps in normal operation count).
         max_recoveries: the most recoveries a rollout fires in its episode; 0: no limit (the paper's).
+        baseline: (T,) the time-conditioned score's per-step baseline (`recovery/time_baseline.py`); None:
+            the window sum itself is compared (the paper's).
     """
 
     def __init__(
@@ -32,6 +37,7 @@ class RecoveryTrigger:
         reset_window_after_recovery: bool = True,
         backoff_from: str = "trigger",
         max_recoveries: int = 0,
+        baseline: np.ndarray | None = None,
     ):
         self.threshold = threshold
         self.window = window
@@ -44,6 +50,8 @@ class RecoveryTrigger:
         self.decision_sums = np.zeros(num_rollouts)
         self.max_recoveries = max_recoveries
         self.fired = np.zeros(num_rollouts, dtype=np.int64)  # recoveries fired so far, per rollout
+        self.baseline = None if baseline is None else np.asarray(baseline, dtype=np.float64)
+        self.step = 0  # steps since the rollouts started together
 
     @property
     def window_sum(self) -> np.ndarray:
@@ -64,7 +72,11 @@ class RecoveryTrigger:
         rows = np.flatnonzero(active)
         self.values[rows, self.counts[rows] % self.window] = uncertainty[rows]
         self.counts[rows] += 1
-        self.decision_sums = self.window_sum  # what the test saw (the window may be cleared below)
+        # What the test saw (the window may be cleared below): the window sum, or its time-conditioned score.
+        self.decision_sums = self.window_sum
+        if self.baseline is not None:
+            self.decision_sums = step_scores(self.decision_sums, self.step, self.baseline, self.window)
+        self.step += 1
         fire = active & (self.decision_sums > self.threshold) & (self.since_recovery > self.interval)
         if self.max_recoveries > 0:
             fire &= self.fired < self.max_recoveries

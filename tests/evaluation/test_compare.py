@@ -79,6 +79,12 @@ def test_rescue_counts_the_failures_a_recovery_turned_into_successes() -> None:
     # 3 failures, 2 of them above C = 1.0; scene 0 rescued, scene 4 lost: (1 - 1) / 3.
     assert (rescue["failures"], rescue["flagged"], rescue["rescued"], rescue["lost"]) == (3, 2, 1, 1)
     assert rescue["rescue_rate"] == 0.0 and rescue["mcnemar_exact_p"] == 1.0
+    # A threshold of the time-conditioned score against u the paper's way: no count of flagged failures.
+    recovered["recovery"]["threshold_source"] = "checkpoint (argmax), time-conditioned (quantile 1.0)"
+    rescue = rescue_record(bvmc, recovered, "place")
+    assert rescue["flagged"] is None and (rescue["rescued"], rescue["lost"]) == (1, 1)
+    bvmc["recovery"] = {"threshold_source": recovered["recovery"]["threshold_source"]}
+    assert rescue_record(bvmc, recovered, "place")["flagged"] == 2
     never_failed = run([True, True])
     assert (
         rescue_record(never_failed, {**run([True, True]), "recovery": {"threshold": 1.0}}, "place")[

@@ -20,6 +20,7 @@ from lerobot_ivmc.evaluation.detection_report import DetectionConfig, detect
 from lerobot_ivmc.evaluation.traces import load_traces
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
 from lerobot_ivmc.recovery.threshold import THRESHOLD_FILE, ThresholdRecord, argmax_threshold
+from lerobot_ivmc.recovery.time_baseline import episode_score, normalized_sums
 
 # Subprocesses, trainings or whole studies: left out of `bash scripts/test.sh -m "not slow"`.
 pytestmark = pytest.mark.slow
@@ -362,3 +363,39 @@ def test_detect_refuses_in_sample_runs_and_bounds_outside_zero_one(tiny_recovery
         detect(DetectionConfig(eval_dir=tmp_path))
     with pytest.raises(ValueError, match=r"--alpha and --alphas are false-alarm bounds in \(0, 1\)"):
         detect(DetectionConfig(eval_dir=tmp_path, alpha=1.5))
+
+
+def test_a_time_conditioned_threshold_drives_the_trigger_the_scores_and_detection(
+    tiny_recovery_checkpoint: Path, tmp_path: Path
+) -> None:
+    """A record with a baseline: the trigger fires at the first step whose window sum over the baseline
+    exceeds C, u is the time-conditioned score, and a run scored the paper's way is refused by detect."""
+    common = ["--recovery.max_videos=0", "--max_episodes_rendered=0", "--recovery.random_streams=episode"]
+    evaluate(tiny_recovery_checkpoint, tmp_path / "none", *common, n_episodes=4)
+    alone = load_traces(tmp_path / "none" / "uncertainty_traces.npz")
+    record = ThresholdRecord.load(tiny_recovery_checkpoint)
+    # A baseline that rises along the episode: the same window sum scores less later on.
+    baseline = np.median(np.concatenate([a["window_sum"] for a in alone])) * np.linspace(
+        0.5, 1.5, EPISODE_LENGTH
+    )
+    checkpoint = tmp_path / "checkpoint"
+    shutil.copytree(tiny_recovery_checkpoint, checkpoint)
+    fields = {**record.__dict__, "threshold": 1.0, "baseline": baseline.tolist(), "baseline_quantile": 0.5}
+    ThresholdRecord(**fields).save(checkpoint)
+    recovery = ["--recovery.mode=rand", "--recovery.initial_interval=5", "--recovery.recovery_steps=5"]
+    info = evaluate(checkpoint, tmp_path / "rand", *common, *recovery, n_episodes=4)
+    assert info["recovery"]["threshold_source"] == "checkpoint (argmax), time-conditioned (quantile 0.5)"
+    recovered = load_traces(tmp_path / "rand" / "uncertainty_traces.npz")
+    fired = 0
+    for a, r, episode in zip(alone, recovered, info["per_episode"], strict=True):
+        scores = normalized_sums(a["window_sum"], baseline, record.window)
+        above = [t for t in np.flatnonzero(scores > 1.0) if t > 5]
+        steps = [event["step"] for event in episode["recoveries"]]
+        assert steps[:1] == above[:1]  # the same episode until then: the same first firing step
+        fired += bool(steps)
+        assert episode["max_uncertainty"] == pytest.approx(
+            episode_score(r["uncertainty"], record.window, baseline)
+        )
+    assert fired > 0
+    with pytest.raises(ValueError, match="scored its episodes by the window-sum score"):
+        detect(DetectionConfig(eval_dir=tmp_path / "none", threshold_path=checkpoint))

@@ -35,7 +35,8 @@ class ThresholdRecord:
     """A picked threshold and the validation episodes it came from (`recovery_threshold.json`).
 
     Attributes:
-        threshold: C, compared with the sliding-window sum of step uncertainties.
+        threshold: C, compared with the sliding-window sum of step uncertainties (over `baseline` at the
+            same step, where the record has one).
         method: how it was picked ("argmax": the paper's; "conformal": split conformal on successes).
         alpha: the false-alarm bound of a conformal threshold (None for argmax).
         window: the sliding window's length it applies to.
@@ -43,7 +44,11 @@ class ThresholdRecord:
         split: their scene split.
         num_samples: S, Monte Carlo samples per step (the uncertainty's scale depends on it).
         uncertainty_lambda: lambda of the uncertainty measure.
-        episodes: per validation episode: seed, u and success.
+        episodes: per validation episode: seed, u and success (with a baseline, u is the time-conditioned
+            score under a baseline made without the episode).
+        baseline: (T,) per step, a quantile of the successful validation episodes' window sums: the
+            time-conditioned score divides by it (`recovery/time_baseline.py`); None: the paper's score.
+        baseline_quantile: which quantile, chosen on the validation episodes.
     """
 
     threshold: float
@@ -55,10 +60,14 @@ class ThresholdRecord:
     uncertainty_lambda: float
     episodes: list[dict] = field(default_factory=list)
     alpha: float | None = None
+    baseline: list[float] | None = None
+    baseline_quantile: float | None = None
 
     def __post_init__(self) -> None:
         check_finite("The threshold", self.threshold)
         check_finite("The validation episodes' u", [e["u"] for e in self.episodes])
+        if self.baseline is not None and not (check_finite("The baseline", self.baseline) > 0).all():
+            raise ValueError("The baseline's window sums must be positive: pick the threshold again.")
 
     def save(self, folder: Path) -> Path:
         path = Path(folder) / THRESHOLD_FILE
