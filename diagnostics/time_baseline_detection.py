@@ -1,5 +1,5 @@
-"""Would the time-conditioned score detect failures better than the trigger's max window sum? Offline, from the
-uncertainty traces a study already wrote, without evaluating again.
+"""Would the time-conditioned score detect failures better than the paper's max window sum? Offline, from
+the uncertainty traces a study already wrote, without evaluating again.
 
 The time-conditioned score (`recovery/time_baseline.py`, `lerobot-ivmc-threshold --time_conditioned=true`)
 divides the window sum at step t by a quantile of the successful validation episodes' window sums at step t.

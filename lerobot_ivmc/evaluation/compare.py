@@ -97,9 +97,9 @@ def rescue_record(bvmc: dict, recovered: dict, milestone: str) -> dict:
 
     Returns:
         failures: scenes the policy failed without recovery; flagged: those of them whose u crossed the
-        recovery run's threshold (where a recovery could start; None where the runs' u differ in kind); rescued: failed without recovery,
-        succeeded with it; lost: the reverse; rescue_rate: (rescued - lost) / failures (None without
-        failures); mcnemar_exact_p: the paired test of rescued against lost.
+        recovery run's threshold (where a recovery could start; None where the runs' u differ in kind);
+        rescued: failed without recovery, succeeded with it; lost: the reverse; rescue_rate: (rescued -
+        lost) / failures (None without failures); mcnemar_exact_p: the paired test of rescued against lost.
     """
     pair = paired_outcomes(bvmc, recovered, milestone)
     threshold = recovered["recovery"]["threshold"]

@@ -241,6 +241,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
         values = change.memory
         if values is None:  # a fresh start: the memory after reset()
             values = memory_row(self.policy.initial_memory(1), 0)
+            self.trigger.restart_clock(row)
         write_memory_row(memory, row, values)
 
     def _begin_recovery(self, row: int, grip: np.ndarray, window_sum: float, fingers: np.ndarray | None):

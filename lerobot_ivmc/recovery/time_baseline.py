@@ -49,20 +49,17 @@ def success_baseline(
     return np.concatenate([baseline, np.full(running.shape[1] - last - 1, baseline[-1])])
 
 
-def step_scores(sums: np.ndarray, step: int, baseline: np.ndarray, window: int) -> np.ndarray:
-    """(B,) the time-conditioned scores of (B,) window sums at one step (0 before the first full window)."""
-    if step < window - 1:
-        return np.zeros_like(sums, dtype=np.float64)
-    return sums / baseline[min(step, len(baseline) - 1)]
+def step_scores(sums: np.ndarray, steps: np.ndarray, baseline: np.ndarray, window: int) -> np.ndarray:
+    """Time-conditioned scores: window sums (B,) over the baseline at each one's step (B,) (its last value
+    past its end); 0 before the first full window, where no score is compared."""
+    steps = np.asarray(steps)
+    ratio = np.asarray(sums, dtype=np.float64) / baseline[np.minimum(steps, len(baseline) - 1)]
+    return np.where(steps >= window - 1, ratio, 0.0)
 
 
 def normalized_sums(sums: np.ndarray, baseline: np.ndarray, window: int) -> np.ndarray:
-    """(T,) window sums over the baseline at the same step (its last value past its end); 0 before the first
-    full window, where no score is compared."""
-    sums = np.asarray(sums, dtype=np.float64)
-    steps = np.arange(len(sums))
-    ratio = sums / baseline[np.minimum(steps, len(baseline) - 1)]
-    return np.where(steps >= window - 1, ratio, 0.0)
+    """(T,) an episode's window sums (T,) as time-conditioned scores, step by step."""
+    return step_scores(sums, np.arange(len(sums)), baseline, window)
 
 
 def episode_score(

@@ -25,7 +25,9 @@ class RecoveryTrigger:
             from the policy's resumption after it ("resume": only steps in normal operation count).
         max_recoveries: the most recoveries a rollout fires in its episode; 0: no limit (the paper's).
         baseline: (T,) the time-conditioned score's per-step baseline (`recovery/time_baseline.py`); None:
-            the window sum itself is compared (the paper's).
+            the window sum itself is compared (the paper's). Its step is each rollout's clock: the steps it
+            acted in normal operation since its policy's memory was last fresh (`restart_clock`), the
+            episode's step where no recovery reset the memory.
     """
 
     def __init__(
@@ -51,7 +53,7 @@ class RecoveryTrigger:
         self.max_recoveries = max_recoveries
         self.fired = np.zeros(num_rollouts, dtype=np.int64)  # recoveries fired so far, per rollout
         self.baseline = None if baseline is None else np.asarray(baseline, dtype=np.float64)
-        self.step = 0  # steps since the rollouts started together
+        self.clock = np.zeros(num_rollouts, dtype=np.int64)
 
     @property
     def window_sum(self) -> np.ndarray:
@@ -75,8 +77,8 @@ class RecoveryTrigger:
         # What the test saw (the window may be cleared below): the window sum, or its time-conditioned score.
         self.decision_sums = self.window_sum
         if self.baseline is not None:
-            self.decision_sums = step_scores(self.decision_sums, self.step, self.baseline, self.window)
-        self.step += 1
+            self.decision_sums = step_scores(self.decision_sums, self.clock, self.baseline, self.window)
+        self.clock[rows] += 1
         fire = active & (self.decision_sums > self.threshold) & (self.since_recovery > self.interval)
         if self.max_recoveries > 0:
             fire &= self.fired < self.max_recoveries
@@ -91,3 +93,7 @@ class RecoveryTrigger:
             self.values[fired] = 0.0
             self.counts[fired] = 0
         return fire
+
+    def restart_clock(self, row: int) -> None:
+        """Rollout `row`'s policy starts again from a fresh memory: the baseline's steps count from here."""
+        self.clock[row] = 0

@@ -117,3 +117,21 @@ def test_record_keeps_the_baseline_and_refuses_a_bad_one(tmp_path) -> None:
     assert loaded.baseline == [1.0, 2.0] and loaded.baseline_quantile == 0.9
     with pytest.raises(ValueError, match="baseline's window sums must be positive"):
         ThresholdRecord(**fields, uncertainty_lambda=1.0, baseline=[1.0, 0.0], episodes=[])
+
+
+def test_a_fresh_memory_restarts_the_clock_the_baseline_is_read_by() -> None:
+    """After a recovery that resets the policy's memory the policy starts again: its window sums are
+    compared with the successes' early steps, and steps inside the manoeuvre do not count."""
+    baseline = np.array([1.0] * 5 + [10.0] * 95)
+    trigger = RecoveryTrigger(1, threshold=np.inf, window=2, initial_interval=0, baseline=baseline)
+
+    def step(active: bool = True) -> float:
+        trigger.update(np.array([1.0]), np.array([active]))
+        return float(trigger.decision_sums[0])
+
+    scores = [step() for _ in range(10)]
+    assert scores[0] == 0.0 and scores[1:5] == [2.0] * 4 and scores[9] == pytest.approx(0.2)
+    step(active=False)  # inside a manoeuvre: no clock step
+    trigger.restart_clock(0)
+    trigger.values[0], trigger.counts[0] = 0.0, 0  # the window the firing cleared
+    assert [step(), step(), step()] == [0.0, 2.0, 2.0]
