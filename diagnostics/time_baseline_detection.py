@@ -1,7 +1,7 @@
 """Would the time-conditioned score detect failures better than the paper's max window sum? Offline, from
 the uncertainty traces a study already wrote, without evaluating again.
 
-The time-conditioned score (`recovery/time_baseline.py`, `lerobot-ivmc-threshold --time_conditioned=true`)
+The time-conditioned score (`recovery/time_baseline.py`, `lerobot-ivmc-threshold --score=time_conditioned`)
 divides the window sum at step t by a quantile of the successful validation episodes' window sums at step t.
 The quantile and C are chosen on the validation run alone, as `lerobot-ivmc-threshold` chooses them; the test
 run is scored once.
@@ -42,7 +42,7 @@ def main() -> None:
     args = parser.parse_args()
     val, val_successes = load_run(args.val_dir)
     test, test_successes = load_run(args.test_dir)
-    q, baseline, val_scores = fit_time_baseline(val, val_successes, args.window, args.quantiles)
+    q, baseline, val_scores, _ = fit_time_baseline(val, val_successes, args.window, args.quantiles)
     threshold, _ = argmax_threshold(val_scores, val_successes)
     scores = np.array([normalized_sums(sums, baseline, args.window).max() for sums in test])
     failures = ~test_successes

@@ -18,6 +18,7 @@ from lerobot_ivmc.evaluation.eval_subtasks import IvmcEvalConfig, evaluate
 from lerobot_ivmc.evaluation.traces import TRACES_FILE, load_traces
 from lerobot_ivmc.recovery.threshold import (
     DEFAULT_WINDOW,
+    SCORES,
     THRESHOLD_METHODS,
     ThresholdRecord,
     argmax_threshold,
@@ -39,16 +40,18 @@ class ThresholdPipelineConfig(IvmcEvalConfig):
             "conformal": split conformal calibration on the successful episodes only, which bounds the
             episode-level false-alarm rate on successes by `alpha`.
         alpha: the false-alarm bound of the conformal threshold.
-        time_conditioned: pick C for the time-conditioned score (beyond the paper): the window sum over a
-            per-step quantile of the successful validation episodes' window sums, so that a phase where
-            every episode is uncertain raises no alarm (`recovery/time_baseline.py`).
+        score: what C is compared with: "window_sum" (the paper's), "time_conditioned" (beyond the paper:
+            the window sum over a per-step quantile of the successful validation episodes' window sums, so
+            that a phase where every episode is uncertain raises no alarm; `recovery/time_baseline.py`), or
+            "auto": the one of the two that tells the validation failures from the successes better (AUROC;
+            the time-conditioned score's cross-fitted, ties to the window sum).
         quantiles: the baseline's candidate quantiles; the one whose cross-fitted scores best tell the
             validation failures from the successes (AUROC) is kept.
     """
 
     method: str = "argmax"
     alpha: float = 0.1
-    time_conditioned: bool = False
+    score: str = "window_sum"
     quantiles: list[float] = field(default_factory=lambda: [0.5, 0.75, 0.9, 1.0])
 
 
@@ -59,7 +62,9 @@ def check_inputs(cfg: ThresholdPipelineConfig) -> Path:
         raise ValueError("Pass --policy.path=<bvmc checkpoint folder>: thresholds apply to bvmc uncertainty.")
     if not 0.0 < cfg.alpha < 1.0:
         raise ValueError(f"--alpha must lie in (0, 1), got {cfg.alpha}.")
-    if cfg.time_conditioned and not (cfg.quantiles and all(0.0 < q <= 1.0 for q in cfg.quantiles)):
+    if cfg.score not in SCORES:
+        raise ValueError(f"--score must be one of {SCORES}, got {cfg.score!r}.")
+    if cfg.score != "window_sum" and not (cfg.quantiles and all(0.0 < q <= 1.0 for q in cfg.quantiles)):
         raise ValueError(f"--quantiles must list quantiles in (0, 1], got {cfg.quantiles}.")
     if cfg.recovery.mode != "none":
         raise ValueError("Thresholds are picked on episodes without recovery: drop --recovery.mode.")
@@ -84,11 +89,10 @@ def pick(cfg: ThresholdPipelineConfig) -> ThresholdRecord:
     episodes = info["per_episode"]
     scores = [e["max_uncertainty"] for e in episodes]
     successes = [bool(e["success"]) for e in episodes]
-    baseline, quantile = None, None
-    if cfg.time_conditioned:
+    baseline, quantile, separation = None, None, None
+    if cfg.score != "window_sum":
         sums = [trace["window_sum"] for trace in load_traces(Path(cfg.output_dir) / TRACES_FILE)]
-        quantile, baseline, fitted = fit_time_baseline(sums, successes, cfg.recovery.window, cfg.quantiles)
-        scores = fitted.tolist()
+        scores, baseline, quantile, separation = choose_score(sums, scores, successes, cfg)
     if cfg.method == "conformal":
         threshold = conformal_threshold([u for u, ok in zip(scores, successes, strict=True) if ok], cfg.alpha)
     else:
@@ -104,6 +108,7 @@ def pick(cfg: ThresholdPipelineConfig) -> ThresholdRecord:
         uncertainty_lambda=cfg.policy.uncertainty_lambda,
         baseline=None if baseline is None else baseline.tolist(),
         baseline_quantile=quantile,
+        score_auroc=separation,
         episodes=[
             {"seed": e["seed"], "u": u, "success": ok}
             for e, u, ok in zip(episodes, scores, successes, strict=True)
@@ -112,6 +117,25 @@ def pick(cfg: ThresholdPipelineConfig) -> ThresholdRecord:
     shutil.copytree(source, checkpoint)
     record.save(checkpoint)
     return record
+
+
+def choose_score(
+    sums: list[np.ndarray], window_scores: list[float], successes: list[bool], cfg: ThresholdPipelineConfig
+) -> tuple[list[float], np.ndarray | None, float | None, dict[str, float | None]]:
+    """The validation episodes' u of the score `cfg.score` asks for, its baseline and quantile (None for the
+    window sum), and each score's validation AUROC (None without a failure)."""
+    quantile, baseline, fitted, fitted_auroc = fit_time_baseline(
+        sums, successes, cfg.recovery.window, cfg.quantiles
+    )
+    separation = {
+        "window_sum": auroc(window_scores, [not ok for ok in successes]),
+        "time_conditioned": fitted_auroc,
+    }
+    separation = {name: None if math.isnan(value) else value for name, value in separation.items()}
+    better = (separation["time_conditioned"] or 0.0) > (separation["window_sum"] or 0.0)
+    if cfg.score == "time_conditioned" or better:
+        return fitted.tolist(), baseline, quantile, separation
+    return window_scores, None, None, separation
 
 
 def cross_fitted_scores(
@@ -132,7 +156,7 @@ def cross_fitted_scores(
 
 def fit_time_baseline(
     sums: Sequence[np.ndarray], successes: Sequence[bool], window: int, quantiles: Sequence[float]
-) -> tuple[float, np.ndarray, np.ndarray]:
+) -> tuple[float, np.ndarray, np.ndarray, float]:
     """The time-conditioned score's quantile, baseline and the validation episodes' u.
 
     Args:
@@ -143,12 +167,12 @@ def fit_time_baseline(
 
     Returns:
         The quantile whose cross-fitted scores have the highest AUROC (ties, or no failure to tell: the
-        first listed), the (T,) baseline from all successes at it, and the (E,) cross-fitted scores, on
-        which C is picked.
+        first listed), the (T,) baseline from all successes at it, the (E,) cross-fitted scores, on which C
+        is picked, and their AUROC (NaN without a failure).
     """
     failures = ~np.asarray(successes, dtype=bool)
     fitted = {q: cross_fitted_scores(sums, successes, window, q) for q in quantiles}
     separation = {q: auroc(scores, failures) for q, scores in fitted.items()}
     logger.info("Validation AUROC of the cross-fitted time-conditioned score per quantile: %s", separation)
     best = max(quantiles, key=lambda q: -math.inf if math.isnan(separation[q]) else separation[q])
-    return best, success_baseline(sums, successes, best), fitted[best]
+    return best, success_baseline(sums, successes, best), fitted[best], separation[best]

@@ -17,7 +17,7 @@ from lerobot_ivmc.datasets.record_config import RecordDemosConfig
 from lerobot_ivmc.policies.vmc.configuration_vmc import VMCConfig
 from lerobot_ivmc.recovery.config import RANDOM_STREAMS, RECOVERY_MODES, TASK_FREE_MODES
 from lerobot_ivmc.recovery.foresight_training import ForesightConfig
-from lerobot_ivmc.recovery.threshold import THRESHOLD_METHODS, conformal_min_successes
+from lerobot_ivmc.recovery.threshold import SCORES, THRESHOLD_METHODS, conformal_min_successes
 
 # Shipped inside the package, so `--preset` works wherever the plugin is installed.
 PRESETS_DIR = Path(__file__).resolve().parent / "presets"
@@ -141,15 +141,14 @@ class ForesightStageConfig:
 
 @dataclass
 class ThresholdStageConfig:
-    """`lerobot-ivmc-threshold` on validation scenes: the paper's argmax, or conformal with `alpha`; with
-    `time_conditioned`, on the time-conditioned score (beyond the paper), which every BVMC row's trigger then
-    compares."""
+    """`lerobot-ivmc-threshold` on validation scenes: the paper's argmax, or conformal with `alpha`, for the
+    `score` every BVMC row's trigger then compares (`--score`: window_sum, time_conditioned or auto)."""
 
     n_episodes: int = 100
     batch_size: int = 10
     method: str = "argmax"
     alpha: float = 0.1
-    time_conditioned: bool = False
+    score: str = "window_sum"
 
 
 @dataclass
@@ -447,6 +446,8 @@ class PipelineConfig:
             raise ValueError(
                 f"--threshold.method must be one of {THRESHOLD_METHODS}, got {self.threshold.method!r}."
             )
+        if self.threshold.score not in SCORES:
+            raise ValueError(f"--threshold.score must be one of {SCORES}, got {self.threshold.score!r}.")
         if not 0 < self.threshold.alpha < 1:
             raise ValueError(f"--threshold.alpha must be in (0, 1), got {self.threshold.alpha}.")
         if self.episode_length <= 0:

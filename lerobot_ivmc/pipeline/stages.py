@@ -320,8 +320,8 @@ def threshold_stage(
             f"--eval.batch_size={th.batch_size}",
             f"--method={th.method}",
             f"--alpha={th.alpha}",
-            # Only when on, so that the studies picked on the paper's score keep their fingerprints.
-            *(["--time_conditioned=true"] if th.time_conditioned else []),
+            # Only when not the paper's, so that the studies picked on it keep their fingerprints.
+            *([f"--score={th.score}"] if th.score != "window_sum" else []),
             *chain.bvmc_flags,
             f"--seed={cfg.seed}",
             f"--output_dir={threshold}",

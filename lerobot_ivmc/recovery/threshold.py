@@ -14,6 +14,9 @@ from lerobot_ivmc.policies.bvmc.threshold_record import THRESHOLD_FILE, Threshol
 DEFAULT_WINDOW = 20  # the paper: "a sliding window of 20 frames best avoids noisy peaks"
 # How a threshold is picked: the paper's argmax, or split conformal on the successful episodes.
 THRESHOLD_METHODS = ("argmax", "conformal")
+# What the threshold is compared with: the paper's window sum, the time-conditioned score
+# (`recovery/time_baseline.py`), or whichever of the two tells the validation failures apart better.
+SCORES = ("window_sum", "time_conditioned", "auto")
 
 
 def window_sums(uncertainties: Sequence[float] | np.ndarray, window: int) -> np.ndarray:

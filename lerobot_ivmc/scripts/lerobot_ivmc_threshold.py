@@ -25,10 +25,15 @@ from lerobot_ivmc.recovery.threshold import ThresholdRecord
 def threshold_main(cfg: ThresholdPipelineConfig) -> ThresholdRecord:
     record = pick(cfg)
     above = sum(e["u"] > record.threshold for e in record.episodes)
-    print(
-        f"{record.task}: threshold C = {record.threshold:.4f} ({record.method}, window {record.window}) from "
-        f"{len(record.episodes)} {record.split} episodes; {above} of them exceed it."
+    score = (
+        "window sum" if record.baseline is None else f"time-conditioned, quantile {record.baseline_quantile}"
     )
+    print(
+        f"{record.task}: threshold C = {record.threshold:.4f} ({record.method}, window {record.window}, "
+        f"{score}) from {len(record.episodes)} {record.split} episodes; {above} of them exceed it."
+    )
+    if record.score_auroc is not None:
+        print(f"Validation AUROC of each score: {record.score_auroc}")
     if all(e["success"] for e in record.episodes):
         print(
             f"No {record.split} episode failed: the threshold has nothing to learn from. Recovery will "

@@ -177,13 +177,13 @@ def test_a_continuous_gripper_study_retrains_from_the_same_demos(monkeypatch: py
 def test_a_time_conditioned_threshold_redoes_the_threshold_and_what_reads_it(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """`--threshold.time_conditioned=true` reaches the threshold stage alone; the trainings, foresight and
+    """`--threshold.score=time_conditioned` reaches the threshold stage alone; the trainings, foresight and
     VMC's row stay done, and every BVMC row (whose trigger reads the threshold) is redone."""
     monkeypatch.setattr(stages_module, "cpu_has_native_bf16", lambda: True)
     found: dict[str, str] = {}
-    for stage in build_stages(parse_config([*LITE_PICK_PLACE_ARGS, "--threshold.time_conditioned=true"])):
+    for stage in build_stages(parse_config([*LITE_PICK_PLACE_ARGS, "--threshold.score=time_conditioned"])):
         found[stage.name] = fingerprint(stage, found)
-        assert ("--time_conditioned=true" in stage.argv) == stage.name.startswith("threshold"), stage.name
+        assert ("--score=time_conditioned" in stage.argv) == stage.name.startswith("threshold"), stage.name
     changed = sorted(name for name in LITE_PICK_PLACE if found[name] != LITE_PICK_PLACE[name])
     assert changed == sorted(
         name for name in LITE_PICK_PLACE if name.startswith(("threshold", "eval_bvmc", "detect"))

@@ -3,11 +3,13 @@ and picking its quantile and C on validation episodes."""
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
 from lerobot_ivmc.evaluation.detection import auroc
-from lerobot_ivmc.evaluation.threshold_picking import cross_fitted_scores, fit_time_baseline
+from lerobot_ivmc.evaluation.threshold_picking import choose_score, cross_fitted_scores, fit_time_baseline
 from lerobot_ivmc.recovery.threshold import ThresholdRecord, argmax_threshold, max_window_sum, window_sums
 from lerobot_ivmc.recovery.time_baseline import episode_score, normalized_sums, success_baseline
 from lerobot_ivmc.recovery.trigger import RecoveryTrigger
@@ -92,8 +94,8 @@ def test_trigger_compares_what_the_episode_score_takes_the_maximum_of() -> None:
 def test_picking_on_validation_separates_and_every_score_is_out_of_sample() -> None:
     streams, successes = episodes()
     sums = [window_sums(u, WINDOW) for u in streams]
-    quantile, baseline, scores = fit_time_baseline(sums, successes, WINDOW, [0.5, 1.0])
-    assert auroc(scores, ~successes) == 1.0
+    quantile, baseline, scores, separation = fit_time_baseline(sums, successes, WINDOW, [0.5, 1.0])
+    assert auroc(scores, ~successes) == separation == 1.0
     threshold, _ = argmax_threshold(scores, successes)
     assert all(scores[~successes] > threshold) and not any(scores[successes] > threshold)
     # Each episode's score comes from the other fold's successes: changing episode 0 moves the scores
@@ -135,3 +137,21 @@ def test_a_fresh_memory_restarts_the_clock_the_baseline_is_read_by() -> None:
     trigger.restart_clock(0)
     trigger.values[0], trigger.counts[0] = 0.0, 0  # the window the firing cleared
     assert [step(), step(), step()] == [0.0, 2.0, 2.0]
+
+
+def test_auto_keeps_the_score_that_tells_the_validation_failures_apart() -> None:
+    """Where failures are more uncertain in the shared phase too, the window sum separates them as well
+    and auto keeps it (ties go to the paper's); where they are not, auto takes the time-conditioned."""
+    streams, successes = episodes()
+    sums = [window_sums(u, WINDOW) for u in streams]
+    raw = [float(s.max()) for s in sums]
+    cfg = SimpleNamespace(score="auto", quantiles=[0.5, 1.0], recovery=SimpleNamespace(window=WINDOW))
+    scores, baseline, quantile, separation = choose_score(sums, raw, list(successes), cfg)
+    assert baseline is not None and separation["time_conditioned"] > separation["window_sum"]
+    louder = [u * (1.0 if ok else 3.0) for u, ok in zip(streams, successes, strict=True)]
+    sums = [window_sums(u, WINDOW) for u in louder]
+    raw = [float(s.max()) for s in sums]
+    scores, baseline, quantile, separation = choose_score(sums, raw, list(successes), cfg)
+    assert separation["window_sum"] == 1.0 and baseline is None and quantile is None and scores == raw
+    cfg.score = "time_conditioned"
+    assert choose_score(sums, raw, list(successes), cfg)[1] is not None

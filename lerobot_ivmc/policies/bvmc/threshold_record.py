@@ -49,6 +49,8 @@ class ThresholdRecord:
         baseline: (T,) per step, a quantile of the successful validation episodes' window sums: the
             time-conditioned score divides by it (`recovery/time_baseline.py`); None: the paper's score.
         baseline_quantile: which quantile, chosen on the validation episodes.
+        score_auroc: where the picking weighed the time-conditioned score, the validation AUROC of each
+            score ("window_sum", "time_conditioned": cross-fitted; None without a failure).
     """
 
     threshold: float
@@ -62,6 +64,7 @@ class ThresholdRecord:
     alpha: float | None = None
     baseline: list[float] | None = None
     baseline_quantile: float | None = None
+    score_auroc: dict[str, float | None] | None = None
 
     def __post_init__(self) -> None:
         check_finite("The threshold", self.threshold)
