@@ -24,7 +24,7 @@ from lerobot_ivmc.recovery.threshold import (
     argmax_threshold,
     conformal_threshold,
 )
-from lerobot_ivmc.recovery.time_baseline import normalized_sums, success_baseline
+from lerobot_ivmc.recovery.time_baseline import MIN_SUCCESSES, normalized_sums, success_baseline
 
 logger = logging.getLogger(__name__)
 
@@ -123,15 +123,20 @@ def choose_score(
     sums: list[np.ndarray], window_scores: list[float], successes: list[bool], cfg: ThresholdPipelineConfig
 ) -> tuple[list[float], np.ndarray | None, float | None, dict[str, float | None]]:
     """The validation episodes' u of the score `cfg.score` asks for, its baseline and quantile (None for the
-    window sum), and each score's validation AUROC (None without a failure)."""
-    quantile, baseline, fitted, fitted_auroc = fit_time_baseline(
-        sums, successes, cfg.recovery.window, cfg.quantiles
-    )
-    separation = {
-        "window_sum": auroc(window_scores, [not ok for ok in successes]),
-        "time_conditioned": fitted_auroc,
-    }
-    separation = {name: None if math.isnan(value) else value for name, value in separation.items()}
+    window sum), and each score's validation AUROC (None without a failure, or for a time-conditioned score
+    `auto` could not fit: too few successes, when it keeps the window sum)."""
+    failures = [not ok for ok in successes]
+    window_auroc = auroc(window_scores, failures)
+    separation = {"window_sum": None if math.isnan(window_auroc) else window_auroc, "time_conditioned": None}
+    try:
+        quantile, baseline, fitted, fitted_auroc = fit_time_baseline(
+            sums, successes, cfg.recovery.window, cfg.quantiles
+        )
+    except ValueError:
+        if cfg.score == "auto":
+            return window_scores, None, None, separation
+        raise
+    separation["time_conditioned"] = None if math.isnan(fitted_auroc) else fitted_auroc
     better = (separation["time_conditioned"] or 0.0) > (separation["window_sum"] or 0.0)
     if cfg.score == "time_conditioned" or better:
         return fitted.tolist(), baseline, quantile, separation
@@ -171,6 +176,13 @@ def fit_time_baseline(
         is picked, and their AUROC (NaN without a failure).
     """
     failures = ~np.asarray(successes, dtype=bool)
+    halves = [int((~failures[fold::2]).sum()) for fold in (0, 1)]
+    if min(halves) < MIN_SUCCESSES:
+        raise ValueError(
+            f"The time-conditioned score needs {MIN_SUCCESSES} successful validation episodes in each half "
+            f"(every other episode), got {halves[0]} and {halves[1]}: evaluate more validation scenes "
+            "(--eval.n_episodes), or pass --score=window_sum."
+        )
     fitted = {q: cross_fitted_scores(sums, successes, window, q) for q in quantiles}
     separation = {q: auroc(scores, failures) for q, scores in fitted.items()}
     logger.info("Validation AUROC of the cross-fitted time-conditioned score per quantile: %s", separation)

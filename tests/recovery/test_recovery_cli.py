@@ -399,3 +399,29 @@ def test_a_time_conditioned_threshold_drives_the_trigger_the_scores_and_detectio
     assert fired > 0
     with pytest.raises(ValueError, match="scored its episodes by the window-sum score"):
         detect(DetectionConfig(eval_dir=tmp_path / "none", threshold_path=checkpoint))
+
+
+def test_auto_keeps_the_window_sum_where_too_few_validation_episodes_succeed(
+    tiny_recovery_checkpoint: Path, tmp_path: Path
+) -> None:
+    """The tiny policy never succeeds: `--score=auto` keeps the paper's window sum and says why in the record;
+    `--score=time_conditioned` is refused in one line."""
+    flags = [*ENV_FLAGS, "--env.split=val", "--eval.n_episodes=2", "--eval.batch_size=2", "--seed=0"]
+    run_main(
+        "lerobot-ivmc-threshold",
+        f"--policy.path={tiny_recovery_checkpoint}",
+        *flags,
+        "--score=auto",
+        f"--output_dir={tmp_path / 'auto'}",
+    )
+    record = ThresholdRecord.load(tmp_path / "auto" / "pretrained_model")
+    assert record.baseline is None and record.score_auroc == {"window_sum": None, "time_conditioned": None}
+    with pytest.raises(ValueError, match="needs 5 successful validation episodes in each half"):
+        run_main(
+            "lerobot-ivmc-threshold",
+            f"--policy.path={tiny_recovery_checkpoint}",
+            *flags,
+            "--score=time_conditioned",
+            f"--output_dir={tmp_path / 'time'}",
+        )
+    assert not (tmp_path / "time" / "pretrained_model").exists()
