@@ -109,9 +109,9 @@ def rescue_record(bvmc: dict, recovered: dict, milestone: str) -> dict:
     return {
         "failures": len(failures),
         # Only where both runs' u are on the threshold's scale (a threshold picked for the time-conditioned
-        # score scores the run without recovery it is picked on by the window sum).
+        # score scores the run without recovery it is picked on by the window sum; baselines differ).
         "flagged": sum(e["max_uncertainty"] > threshold for e in failures)
-        if time_conditioned(bvmc) == time_conditioned(recovered)
+        if score_kind(bvmc) == score_kind(recovered)
         else None,
         "rescued": rescued,
         "lost": lost,
@@ -123,3 +123,11 @@ def rescue_record(bvmc: dict, recovered: dict, milestone: str) -> dict:
 def time_conditioned(run: dict) -> bool:
     """Whether a bvmc run's u and threshold are the time-conditioned score's (`recovery/time_baseline.py`)."""
     return "time-conditioned" in str(run.get("recovery", {}).get("threshold_source"))
+
+
+def score_kind(run: dict) -> str:
+    """What a bvmc run's u is: "window_sum", or the time-conditioned score of one baseline (its digest, where
+    the run recorded it)."""
+    if not time_conditioned(run):
+        return "window_sum"
+    return run["recovery"].get("baseline_digest", "time_conditioned")

@@ -13,6 +13,7 @@ from lerobot_ivmc.evaluation.compare import time_conditioned
 from lerobot_ivmc.evaluation.detection import auroc, conformal_sweep, metrics_at_threshold, plot_detection
 from lerobot_ivmc.evaluation.traces import TRACES_FILE, load_traces
 from lerobot_ivmc.recovery.threshold import ThresholdRecord, check_finite, conformal_threshold
+from lerobot_ivmc.recovery.time_baseline import baseline_digest
 
 logger = logging.getLogger(__name__)
 
@@ -62,6 +63,13 @@ def detect(cfg: DetectionConfig) -> dict:
             f"--alpha and --alphas are false-alarm bounds in (0, 1), got {cfg.alpha}, {cfg.alphas}."
         )
     conditioned = time_conditioned(info)
+    digest = info["recovery"].get("baseline_digest")
+    if conditioned and record.baseline is not None and digest not in (None, baseline_digest(record.baseline)):
+        raise ValueError(
+            f"--eval_dir={cfg.eval_dir} scored its episodes with another time-conditioned baseline than the "
+            f"threshold of {threshold_path}: evaluate the checkpoint that holds this threshold, or pass its "
+            "--threshold_path."
+        )
     if conditioned != (record.baseline is not None):
         raise ValueError(
             f"--eval_dir={cfg.eval_dir} scored its episodes by the "

@@ -45,6 +45,7 @@ from lerobot_ivmc.evaluation.traces import TRACES_FILE, episode_traces, save_tra
 from lerobot_ivmc.recovery.config import RecoveryConfig
 from lerobot_ivmc.recovery.controller import IntrospectiveController
 from lerobot_ivmc.recovery.threshold import ThresholdRecord, check_finite, resolve_threshold
+from lerobot_ivmc.recovery.time_baseline import baseline_digest
 
 logger = logging.getLogger(__name__)
 
@@ -208,6 +209,8 @@ def run_evaluation(cfg: IvmcEvalConfig, output_dir: Path, ignore_stored_threshol
     if controller is not None:
         episodes = episode_traces(controller.traces, lengths_per_env, n, window, baseline)
         add_recovery_results(info, episodes, cfg, threshold, window, source, output_dir)
+        if baseline is not None:
+            info["recovery"]["baseline_digest"] = baseline_digest(baseline)
         if cfg.recovery.mode == "min_unc":
             info["recovery"]["candidate_noise"] = controller.candidate_noise
         if video_store is not None:

@@ -6,6 +6,7 @@ per-step baseline is here; choosing its quantile on validation scenes is `evalua
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Sequence
 
 import numpy as np
@@ -71,3 +72,9 @@ def episode_score(
         raise ValueError("An episode needs at least one step to have a maximum uncertainty.")
     sums = window_sums(uncertainties, window)
     return float((sums if baseline is None else normalized_sums(sums, baseline, window)).max())
+
+
+def baseline_digest(baseline: Sequence[float] | np.ndarray) -> str:
+    """A short fingerprint of a baseline, recorded with the runs scored by it: u of runs with different
+    baselines are not comparable."""
+    return hashlib.sha1(np.asarray(baseline, dtype=np.float64).tobytes()).hexdigest()[:16]

@@ -26,8 +26,9 @@ class RecoveryTrigger:
         max_recoveries: the most recoveries a rollout fires in its episode; 0: no limit (the paper's).
         baseline: (T,) the time-conditioned score's per-step baseline (`recovery/time_baseline.py`); None:
             the window sum itself is compared (the paper's). Its step is each rollout's clock: the steps it
-            acted in normal operation since its policy's memory was last fresh (`restart_clock`), the
-            episode's step where no recovery reset the memory.
+            spent in normal operation since its policy's memory was last reset (`restart_clock`), the
+            episode's step before any recovery. A recovery that restores or keeps the memory (min_unc,
+            anchor's follow) does not set it back, and its own steps do not count.
     """
 
     def __init__(

@@ -20,7 +20,7 @@ from lerobot_ivmc.evaluation.detection_report import DetectionConfig, detect
 from lerobot_ivmc.evaluation.traces import load_traces
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
 from lerobot_ivmc.recovery.threshold import THRESHOLD_FILE, ThresholdRecord, argmax_threshold
-from lerobot_ivmc.recovery.time_baseline import episode_score, normalized_sums
+from lerobot_ivmc.recovery.time_baseline import baseline_digest, episode_score, normalized_sums
 
 # Subprocesses, trainings or whole studies: left out of `bash scripts/test.sh -m "not slow"`.
 pytestmark = pytest.mark.slow
@@ -385,6 +385,7 @@ def test_a_time_conditioned_threshold_drives_the_trigger_the_scores_and_detectio
     recovery = ["--recovery.mode=rand", "--recovery.initial_interval=5", "--recovery.recovery_steps=5"]
     info = evaluate(checkpoint, tmp_path / "rand", *common, *recovery, n_episodes=4)
     assert info["recovery"]["threshold_source"] == "checkpoint (argmax), time-conditioned (quantile 0.5)"
+    assert info["recovery"]["baseline_digest"] == baseline_digest(baseline)
     recovered = load_traces(tmp_path / "rand" / "uncertainty_traces.npz")
     fired = 0
     for a, r, episode in zip(alone, recovered, info["per_episode"], strict=True):

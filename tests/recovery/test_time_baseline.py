@@ -155,3 +155,52 @@ def test_auto_keeps_the_score_that_tells_the_validation_failures_apart() -> None
     assert separation["window_sum"] == 1.0 and baseline is None and quantile is None and scores == raw
     cfg.score = "time_conditioned"
     assert choose_score(sums, raw, list(successes), cfg)[1] is not None
+
+
+def test_detect_and_compare_refuse_scores_of_another_baseline(tmp_path) -> None:
+    """u made with one baseline is not compared with a threshold or u of another, nor with the window sum."""
+    import json
+
+    from lerobot_ivmc.evaluation.compare import rescue_record
+    from lerobot_ivmc.evaluation.detection_report import DetectionConfig, detect
+    from lerobot_ivmc.recovery.time_baseline import baseline_digest
+
+    checkpoint, eval_dir = tmp_path / "checkpoint", tmp_path / "eval"
+    checkpoint.mkdir()
+    eval_dir.mkdir()
+    ThresholdRecord(
+        threshold=1.0,
+        method="argmax",
+        window=WINDOW,
+        task="push-v3",
+        split="val",
+        num_samples=8,
+        uncertainty_lambda=1.0,
+        baseline=[1.0, 2.0],
+        baseline_quantile=1.0,
+        episodes=[],
+    ).save(checkpoint)
+    source = "checkpoint (argmax), time-conditioned (quantile 1.0)"
+    info = {
+        "run": {"task": "push-v3", "split": "test", "policy_path": str(checkpoint)},
+        "recovery": {
+            "mode": "none",
+            "threshold_source": source,
+            "baseline_digest": baseline_digest([1.0, 3.0]),
+        },
+        "per_episode": [
+            {"seed": 0, "max_uncertainty": 2.0, "success": False, "subtasks": {"success": False}}
+        ],
+    }
+    (eval_dir / "eval_info.json").write_text(json.dumps(info))
+    with pytest.raises(ValueError, match="another time-conditioned baseline than the threshold"):
+        detect(DetectionConfig(eval_dir=eval_dir))
+    (eval_dir / "eval_info.json").write_text(json.dumps({**info, "recovery": {"mode": "none"}}))
+    with pytest.raises(ValueError, match="scored its episodes by the window-sum score"):
+        detect(DetectionConfig(eval_dir=eval_dir))
+    recovered = {**info, "recovery": {**info["recovery"], "threshold": 1.0}}
+    recovered["per_episode"] = [{**info["per_episode"][0], "success": True, "subtasks": {"success": True}}]
+    assert rescue_record(info, recovered, "success")["flagged"] == 1
+    recovered["recovery"]["baseline_digest"] = baseline_digest([1.0, 2.0])
+    rescue = rescue_record(info, recovered, "success")
+    assert rescue["flagged"] is None and rescue["rescued"] == 1

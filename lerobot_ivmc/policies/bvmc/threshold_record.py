@@ -69,8 +69,12 @@ class ThresholdRecord:
     def __post_init__(self) -> None:
         check_finite("The threshold", self.threshold)
         check_finite("The validation episodes' u", [e["u"] for e in self.episodes])
-        if self.baseline is not None and not (check_finite("The baseline", self.baseline) > 0).all():
-            raise ValueError("The baseline's window sums must be positive: pick the threshold again.")
+        if self.baseline is not None and not (
+            len(self.baseline) > 0 and (check_finite("The baseline", self.baseline) > 0).all()
+        ):
+            raise ValueError(
+                "The baseline's window sums must be positive, at least one: pick the threshold again."
+            )
 
     def save(self, folder: Path) -> Path:
         path = Path(folder) / THRESHOLD_FILE
