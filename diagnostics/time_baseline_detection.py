@@ -11,11 +11,11 @@ run is scored once.
 """
 
 import argparse
-import json
 from pathlib import Path
 
 import numpy as np
 
+from lerobot_ivmc.evaluation.compare import load_run
 from lerobot_ivmc.evaluation.detection import auroc
 from lerobot_ivmc.evaluation.threshold_picking import fit_time_baseline
 from lerobot_ivmc.evaluation.traces import TRACES_FILE, load_traces
@@ -23,11 +23,11 @@ from lerobot_ivmc.recovery.threshold import DEFAULT_WINDOW, argmax_threshold, wi
 from lerobot_ivmc.recovery.time_baseline import normalized_sums
 
 
-def load_run(folder: Path, window: int) -> tuple[list[np.ndarray], np.ndarray]:
+def load_episodes(folder: Path, window: int) -> tuple[list[np.ndarray], np.ndarray]:
     """Per episode its (T_e,) window sums (index = step), made again from the step uncertainties (a run
     scored by a time-conditioned threshold records ratios), and (E,) success, of an evaluation without
     recovery."""
-    episodes = json.loads((folder / "eval_info.json").read_text())["per_episode"]
+    episodes = load_run(folder)["per_episode"]
     traces = [window_sums(trace["uncertainty"], window) for trace in load_traces(folder / TRACES_FILE)]
     return traces, np.array([bool(e["success"]) for e in episodes])
 
@@ -41,8 +41,8 @@ def main() -> None:
     parser.add_argument("--quantiles", type=float, nargs="+", default=[0.5, 0.75, 0.9, 1.0])
     parser.add_argument("--window", type=int, default=DEFAULT_WINDOW)
     args = parser.parse_args()
-    val, val_successes = load_run(args.val_dir, args.window)
-    test, test_successes = load_run(args.test_dir, args.window)
+    val, val_successes = load_episodes(args.val_dir, args.window)
+    test, test_successes = load_episodes(args.test_dir, args.window)
     q, baseline, val_scores, _ = fit_time_baseline(val, val_successes, args.window, args.quantiles)
     threshold, _ = argmax_threshold(val_scores, val_successes)
     scores = np.array([normalized_sums(sums, baseline, args.window).max() for sums in test])

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from lerobot_ivmc.recovery.threshold import window_sums
+from lerobot_ivmc.recovery.threshold import max_window_sum, window_sums
 
 # A step's baseline needs this many successful episodes still running; later steps carry the last one.
 MIN_SUCCESSES = 5
@@ -68,10 +68,11 @@ def episode_score(
 ) -> float:
     """An episode's u: the maximum window sum (the paper's), or with a baseline the maximum time-conditioned
     score."""
+    if baseline is None:
+        return max_window_sum(uncertainties, window)
     if len(uncertainties) == 0:
         raise ValueError("An episode needs at least one step to have a maximum uncertainty.")
-    sums = window_sums(uncertainties, window)
-    return float((sums if baseline is None else normalized_sums(sums, baseline, window)).max())
+    return float(normalized_sums(window_sums(uncertainties, window), baseline, window).max())
 
 
 def baseline_digest(baseline: Sequence[float] | np.ndarray) -> str:
