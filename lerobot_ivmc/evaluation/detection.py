@@ -119,8 +119,11 @@ def plot_detection(
     sweep: list[dict],
     folder: Path,
     title: str,
+    score_label: str = "sliding-window sum of uncertainty",
 ) -> list[Path]:
-    """ROC curve, window-sum traces of successes and failures with the thresholds, TPR / TNR vs alpha."""
+    """ROC curve, score traces of successes and failures with the thresholds, TPR / TNR vs alpha.
+
+    `score_label` names what the traces hold: the window sum, or its time-conditioned ratio."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -150,7 +153,7 @@ def plot_detection(
     ax.plot([], [], color="tab:blue", label="successes")
     ax.plot([], [], color="tab:red", label="failures")
     ax.set_xlabel("step")
-    ax.set_ylabel("sliding-window sum of uncertainty")
+    ax.set_ylabel(score_label)
     paths.append(_save(fig, ax, title, folder / "score_traces.png", legend_loc="upper left"))
 
     if sweep:

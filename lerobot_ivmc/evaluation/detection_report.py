@@ -118,15 +118,21 @@ def detect(cfg: DetectionConfig) -> dict:
         if conformal is not None
         else {"alpha": cfg.alpha, "unavailable": conformal_missing},
         "conformal_sweep": sweep,
-        "lead_time_definition": "steps from the first window sum above the threshold to the episode's end",
+        "lead_time_definition": "steps from the first window sum above the threshold to the episode's end"
+        if record.baseline is None
+        else "steps from the first time-conditioned window sum above the threshold to the episode's end",
     }
     output_dir = Path(cfg.output_dir or Path(cfg.eval_dir) / "detection")
     thresholds = {f"conformal a={cfg.alpha}": conformal} if conformal is not None else {}
     if record.method == "argmax":
         thresholds = {"argmax": record.threshold, **thresholds}
     title = f"{result['task']}: {len(episodes)} {info['run']['split']} episodes"
+    score_label = (
+        "sliding-window sum of uncertainty" if record.baseline is None else "window sum / success baseline"
+    )
     result["plots"] = [
-        p.name for p in plot_detection(scores, failures, traces, thresholds, sweep, output_dir, title)
+        p.name
+        for p in plot_detection(scores, failures, traces, thresholds, sweep, output_dir, title, score_label)
     ]
     write_json_atomic(output_dir / DETECTION_FILE, result)
     return result
