@@ -274,6 +274,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
         fire = self.trigger.update(uncertainty, normal)
         window_sum = self.trigger.decision_sums
         actions = prediction.mean_action.clone()
+        self.strategy.normal_actions(self, prediction, actions, normal)
         phases = np.zeros(grip.shape[0], dtype=np.int8)
         for row in range(grip.shape[0]):
             if fire[row]:

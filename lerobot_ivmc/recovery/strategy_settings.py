@@ -75,10 +75,15 @@ class RetrySettings:
         start_radius: retry returns to a point drawn uniformly in a ball of this radius (metres) around the
             episode's start grip position, from the rollout's own random stream, so a second attempt does
             not begin exactly where the first did; 0: the start position itself.
+        commit_sample: after the return, the policy acts with one posterior sample of its network (one
+            set of dropout masks, drawn at the trigger from the rollout's stream and kept until the next
+            trigger) instead of the Monte Carlo mean, which averages hypotheses that disagree where the
+            policy is uncertain; the uncertainty still comes from the S fresh samples. False: the mean.
     """
 
     steps: int = 60
     start_radius: float = 0.0
+    commit_sample: bool = False
 
     def __post_init__(self) -> None:
         if self.steps < 1:

@@ -312,3 +312,50 @@ def test_max_recoveries_limits_an_episodes_recoveries(max_recoveries: int, expec
     assert len(controller.traces[-1].events[0]) == expected
     with pytest.raises(ValueError, match="max_recoveries must be >= 0"):
         RecoveryConfig(mode="retry", max_recoveries=-1)
+
+
+@pytest.mark.parametrize("commit_sample", [False, True])
+def test_retry_hands_back_to_the_mean_or_to_one_committed_posterior_sample(commit_sample: bool) -> None:
+    """After its return to the start, retry's rollout acts with the Monte Carlo mean, or with
+    `commit_sample` with the head under the one set of dropout masks drawn at the trigger, every step."""
+    from lerobot_ivmc.policies.bvmc.modeling_bvmc import mean_action
+    from lerobot_ivmc.recovery.manoeuvres import RETRY
+    from lerobot_ivmc.recovery.strategy_settings import RetrySettings
+
+    move = [0.0, 0.3, 0.0]
+    policy = scripted_policy([0.0] * 5 + [1.0] + [0.0] * 100, move=move)
+    embeddings, sample = [], policy.sample
+    policy.sample = lambda *args, **kwargs: embeddings.append(sample(*args, **kwargs)) or embeddings[-1]
+    retry = RetrySettings(steps=20, commit_sample=commit_sample)
+    cfg = RecoveryConfig(mode="retry", window=1, initial_interval=0, retry=retry)
+    controller = IntrospectiveController(
+        policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS, embodiment=FETCH_EMBODIMENT
+    )
+    _, actions = run_episode(controller, steps=40)
+    actions = np.array(actions)
+    returning = np.flatnonzero(np.stack(controller.traces[-1].phase)[:, 0] == RETRY)
+    after = np.arange(returning[-1] + 1, 40)
+    assert returning[0] == 5 and len(after) >= 10
+    np.testing.assert_allclose(actions[:5, :3], [move] * 5)  # the mean until the trigger
+    if not commit_sample:
+        np.testing.assert_allclose(actions[after, :3], [move] * len(after))
+        return
+    noise = controller.strategy.committed[0]
+    for t in after:
+        with torch.no_grad():
+            delta_ee, gripper_values = policy.sample_head(embeddings[t].embedding, 1, noise)
+        expected = mean_action(delta_ee, gripper_values, policy.config.gripper)[0].numpy()
+        np.testing.assert_allclose(actions[t], expected, atol=1e-6)
+    assert not np.allclose(actions[after, :3], [move] * len(after))
+
+
+def test_retry_commit_sample_is_refused_for_a_policy_that_draws_no_masks() -> None:
+    from lerobot_ivmc.recovery.strategy_settings import RetrySettings
+
+    policy = scripted_policy([0.0], move=[0.0, 0.0, 0.0])
+    policy.mc_sampling = False
+    cfg = RecoveryConfig(mode="retry", retry=RetrySettings(commit_sample=True))
+    with pytest.raises(ValueError, match="mc_sampling=false"):
+        IntrospectiveController(
+            policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS, embodiment=FETCH_EMBODIMENT
+        )

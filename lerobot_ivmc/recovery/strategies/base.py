@@ -64,6 +64,12 @@ class RecoveryStrategy:
         """What rollout `row` does after `finished` ends: another manoeuvre, or None (the policy)."""
         return None
 
+    def normal_actions(
+        self, ctx: IntrospectiveController, prediction: MCPrediction, actions: Tensor, normal: np.ndarray
+    ) -> None:
+        """Set, in place, the (B, 4) `actions` of the rollouts in normal operation ((B,) `normal`); they
+        hold the Monte Carlo mean, which this base class leaves."""
+
     def policy_action(self, ctx: IntrospectiveController, prediction: MCPrediction, row: int) -> np.ndarray:
         """The action a manoeuvre takes from the policy (`Manoeuvre.act`'s callable): the Monte Carlo mean."""
         return prediction.mean_action[row].cpu().numpy()
