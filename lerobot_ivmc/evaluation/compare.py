@@ -97,7 +97,8 @@ def rescue_record(bvmc: dict, recovered: dict, milestone: str) -> dict:
 
     Returns:
         failures: scenes the policy failed without recovery; flagged: those of them whose u crossed the
-        recovery run's threshold (where a recovery could start; None where the runs' u differ in kind);
+        recovery run's threshold (where a recovery could start; None where the runs' u differ in kind, or
+        where the recovery run's deadline also fires recoveries);
         rescued: failed without recovery, succeeded with it; lost: the reverse; rescue_rate: (rescued -
         lost) / failures (None without failures); mcnemar_exact_p: the paired test of rescued against lost.
     """
@@ -112,6 +113,7 @@ def rescue_record(bvmc: dict, recovered: dict, milestone: str) -> dict:
         # score scores the run without recovery it is picked on by the window sum; baselines differ).
         "flagged": sum(e["max_uncertainty"] > threshold for e in failures)
         if score_kind(bvmc) == score_kind(recovered)
+        and not recovered["recovery"].get("settings", {}).get("deadline")
         else None,
         "rescued": rescued,
         "lost": lost,

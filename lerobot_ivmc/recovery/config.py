@@ -48,6 +48,10 @@ class RecoveryConfig:
         max_recoveries: the most recoveries an episode may fire; 0: no limit (the paper's). With 1, a rollout
             that recovered once goes on with the policy however uncertain it becomes (a second retry throws
             away the first one's progress).
+        deadline: a recovery also fires when a rollout has acted this many steps since its memory was last
+            fresh (the trigger's clock: the episode's step before any recovery) without succeeding, whatever
+            its uncertainty: a timeout, set a little beyond the longest successful validation episode
+            (`lerobot-ivmc-threshold` prints it). 0: no deadline (the paper's trigger).
         reset_window_after_recovery: clear the window sum when a recovery starts and add no uncertainty
             during it, so the next trigger is decided on steps after the recovery only. The paper is
             silent; without it the high uncertainties that fired the trigger keep the sum above C.
@@ -88,6 +92,7 @@ class RecoveryConfig:
     initial_interval: int = 20
     backoff_from: str = "trigger"
     max_recoveries: int = 0
+    deadline: int = 0
     reset_window_after_recovery: bool = True
     recovery_steps: int = 25
     backtrack_horizon: int = 20
@@ -123,7 +128,12 @@ class RecoveryConfig:
             )
         if self.window is not None and self.window < 1:
             raise ValueError(f"--recovery.window must be >= 1 step, got {self.window}.")
-        for name in ("initial_interval", "max_videos", "max_recoveries"):
+        if self.deadline and self.mode == "none":
+            raise ValueError(
+                "--recovery.deadline fires a recovery; with --recovery.mode=none there is none to fire: drop "
+                "it or choose a mode."
+            )
+        for name in ("initial_interval", "max_videos", "max_recoveries", "deadline"):
             if getattr(self, name) < 0:
                 raise ValueError(f"--recovery.{name} must be >= 0, got {getattr(self, name)}.")
         for name in ("backtrack_horizon", "recovery_steps"):

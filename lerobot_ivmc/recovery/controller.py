@@ -176,6 +176,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
             self.recovery.backoff_from,
             self.recovery.max_recoveries,
             self.baseline,
+            self.recovery.deadline,
         )
         self.manoeuvres: list[Manoeuvre | None] = [None] * batch_size
         self.fifos = [deque(maxlen=self.recovery.backtrack_horizon) for _ in range(batch_size)]

@@ -11,9 +11,9 @@ class RecoveryTrigger:
     """Algorithm 1, lines 4 to 9, for a batch of rollouts that started together.
 
     At every step each rollout in normal operation adds its uncertainty to a sliding window; a recovery
-    fires when the window sum (over the baseline at this step, where one is given) exceeds C and more than
-    T_recovery steps have passed since the last recovery (or the episode's start). Each firing doubles that
-    rollout's T_recovery.
+    fires when the window sum (over the baseline at this step, where one is given) exceeds C, or the
+    rollout's clock reaches the deadline where one is set, and more than T_recovery steps have passed since
+    the last recovery (or the episode's start). Each firing doubles that rollout's T_recovery.
 
     Args:
         num_rollouts: B.
@@ -29,6 +29,8 @@ class RecoveryTrigger:
             spent in normal operation since its policy's memory was last reset (`restart_clock`), the
             episode's step before any recovery. A recovery that restores or keeps the memory (min_unc,
             anchor's follow) does not set it back, and its own steps do not count.
+        deadline: a rollout also fires when its clock reaches this many steps, whatever its score (a
+            timeout: a little beyond the longest successful validation episode); 0: no deadline.
     """
 
     def __init__(
@@ -41,8 +43,10 @@ class RecoveryTrigger:
         backoff_from: str = "trigger",
         max_recoveries: int = 0,
         baseline: np.ndarray | None = None,
+        deadline: int = 0,
     ):
         self.threshold = threshold
+        self.deadline = deadline
         self.window = window
         self.reset_window_after_recovery = reset_window_after_recovery
         self.values = np.zeros((num_rollouts, window))  # circular buffer of the last `window` values
@@ -80,7 +84,10 @@ class RecoveryTrigger:
         if self.baseline is not None:
             self.decision_sums = step_scores(self.decision_sums, self.clock, self.baseline, self.window)
         self.clock[rows] += 1
-        fire = active & (self.decision_sums > self.threshold) & (self.since_recovery > self.interval)
+        alarm = self.decision_sums > self.threshold
+        if self.deadline > 0:
+            alarm |= self.clock >= self.deadline
+        fire = active & alarm & (self.since_recovery > self.interval)
         if self.max_recoveries > 0:
             fire &= self.fired < self.max_recoveries
         fired = np.flatnonzero(fire)

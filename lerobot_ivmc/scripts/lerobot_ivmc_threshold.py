@@ -18,6 +18,7 @@ from lerobot.configs import parser
 
 from lerobot_ivmc.cli import cli_main
 from lerobot_ivmc.evaluation.threshold_picking import CHECKPOINT_DIR, ThresholdPipelineConfig, pick
+from lerobot_ivmc.evaluation.traces import TRACES_FILE, load_traces
 from lerobot_ivmc.recovery.threshold import ThresholdRecord
 
 
@@ -34,6 +35,14 @@ def threshold_main(cfg: ThresholdPipelineConfig) -> ThresholdRecord:
     )
     if record.score_auroc is not None:
         print(f"Validation AUROC of each score: {record.score_auroc}")
+    traces = load_traces(Path(cfg.output_dir) / TRACES_FILE)
+    pairs = zip(traces, record.episodes, strict=True)
+    success_steps = [len(trace["uncertainty"]) for trace, episode in pairs if episode["success"]]
+    if success_steps:
+        print(
+            f"Successful {record.split} episodes ran {min(success_steps)} to {max(success_steps)} steps (a "
+            f"--recovery.deadline beyond {max(success_steps)} also recovers rollouts that run longer)."
+        )
     if all(e["success"] for e in record.episodes):
         print(
             f"No {record.split} episode failed: the threshold has nothing to learn from. Recovery will "

@@ -85,6 +85,9 @@ def test_rescue_counts_the_failures_a_recovery_turned_into_successes() -> None:
     assert rescue["flagged"] is None and (rescue["rescued"], rescue["lost"]) == (1, 1)
     bvmc["recovery"] = {"threshold_source": recovered["recovery"]["threshold_source"]}
     assert rescue_record(bvmc, recovered, "place")["flagged"] == 2
+    # A deadline fires recoveries whatever u: u above C no longer says which failures a recovery met.
+    recovered["recovery"]["settings"] = {"deadline": 80}
+    assert rescue_record(bvmc, recovered, "place")["flagged"] is None
     never_failed = run([True, True])
     assert (
         rescue_record(never_failed, {**run([True, True]), "recovery": {"threshold": 1.0}}, "place")[

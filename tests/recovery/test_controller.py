@@ -359,3 +359,19 @@ def test_retry_commit_sample_is_refused_for_a_policy_that_draws_no_masks() -> No
         IntrospectiveController(
             policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS, embodiment=FETCH_EMBODIMENT
         )
+
+
+def test_a_deadline_retries_a_rollout_whose_uncertainty_never_crosses_c() -> None:
+    from lerobot_ivmc.recovery.manoeuvres import RETRY
+
+    policy = scripted_policy([0.0] * 100, move=[0.0, 0.3, 0.0])
+    cfg = RecoveryConfig(mode="retry", window=1, initial_interval=0, deadline=8)
+    controller = IntrospectiveController(
+        policy, cfg, threshold=0.5, window=1, env_state_stats=IDENTITY_STATS, embodiment=FETCH_EMBODIMENT
+    )
+    run_episode(controller, steps=30)
+    phases = np.stack(controller.traces[-1].phase)[:, 0]
+    events = [event["step"] for event in controller.traces[-1].events[0]]
+    first_return_end = 7 + int(np.argmax(phases[7:] != RETRY))  # the policy's first step after the return
+    # The eighth normal step fires; the fresh policy's eighth step after the return fires again.
+    assert events[0] == 7 and events[1] == first_return_end + 7

@@ -100,3 +100,11 @@ def test_flags_that_kept_their_names_are_not_taken_for_renamed_ones() -> None:
         "--policy.anchor_steps=5",
     ):
         assert renamed_flag(arg) is None, arg
+
+
+def test_a_deadline_needs_a_mode_to_fire_and_a_non_negative_age() -> None:
+    assert RecoveryConfig(mode="retry", deadline=80).deadline == 80
+    with pytest.raises(ValueError, match="deadline fires a recovery"):
+        RecoveryConfig(mode="none", deadline=80)
+    with pytest.raises(ValueError, match="deadline must be >= 0"):
+        RecoveryConfig(mode="retry", deadline=-1)

@@ -77,3 +77,21 @@ def test_max_recoveries_stops_firing_after_the_limit_per_rollout() -> None:
     fires = [limited.update(np.array(u), np.array([True, True])).tolist() for u in streams]
     assert [row[0] for row in fires] == [False, True, True, False, False, False, False]
     assert [row[1] for row in fires] == [False] * 4 + [True, True, False]
+
+
+def test_a_deadline_fires_at_its_age_without_uncertainty_and_counts_from_a_fresh_memory() -> None:
+    # Zero uncertainty never crosses C; the deadline of 5 fires at the step the clock reaches 5 (step 4).
+    assert run(RecoveryTrigger(1, 0.5, 1, initial_interval=0), [0.0] * 20) == []
+    trigger = RecoveryTrigger(1, 0.5, 1, initial_interval=0, deadline=5)
+    active = [True] * 5 + [False] * 3 + [True] * 12  # a 3-step manoeuvre after the firing step
+    fired = []
+    for t in range(13):
+        if t == 8:
+            trigger.restart_clock(0)  # the manoeuvre handed back with a fresh memory
+        if trigger.update(np.array([0.0]), np.array([active[t]]))[0]:
+            fired.append(t)
+    assert fired == [4, 12]  # five steps of the fresh policy: steps 8 to 12
+    # Without the restart the clock keeps counting the episode's normal steps: it stays past the deadline,
+    # so the next firing waits only for the doubled backoff.
+    kept = RecoveryTrigger(1, 0.5, 1, initial_interval=2, deadline=5)
+    assert run(kept, [0.0] * 20, active)[:2] == [4, 9]
