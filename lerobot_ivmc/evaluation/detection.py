@@ -19,6 +19,9 @@ from sklearn.metrics import roc_auc_score, roc_curve
 from lerobot_ivmc.evaluation.metrics import rate_with_stderr
 from lerobot_ivmc.recovery.threshold import conformal_threshold
 
+# The score-traces plot's axis for the paper's score.
+WINDOW_SUM_LABEL = "sliding-window sum of uncertainty"
+
 
 def first_crossing(window_sums: np.ndarray, threshold: float) -> int | None:
     """The first step whose window sum exceeds the threshold, or None."""
@@ -119,7 +122,7 @@ def plot_detection(
     sweep: list[dict],
     folder: Path,
     title: str,
-    score_label: str = "sliding-window sum of uncertainty",
+    score_label: str = WINDOW_SUM_LABEL,
 ) -> list[Path]:
     """ROC curve, score traces of successes and failures with the thresholds, TPR / TNR vs alpha.
 

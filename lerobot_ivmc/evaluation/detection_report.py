@@ -10,7 +10,13 @@ from pathlib import Path
 from lerobot_ivmc.atomic_files import write_json_atomic
 from lerobot_ivmc.constants import EVAL_INFO_FILE
 from lerobot_ivmc.evaluation.compare import time_conditioned
-from lerobot_ivmc.evaluation.detection import auroc, conformal_sweep, metrics_at_threshold, plot_detection
+from lerobot_ivmc.evaluation.detection import (
+    WINDOW_SUM_LABEL,
+    auroc,
+    conformal_sweep,
+    metrics_at_threshold,
+    plot_detection,
+)
 from lerobot_ivmc.evaluation.traces import TRACES_FILE, load_traces
 from lerobot_ivmc.recovery.threshold import ThresholdRecord, check_finite, conformal_threshold
 from lerobot_ivmc.recovery.time_baseline import baseline_digest
@@ -97,6 +103,8 @@ def detect(cfg: DetectionConfig) -> dict:
     except ValueError as error:  # too few calibration successes: report the rest, say why this is missing
         conformal, conformal_missing = None, str(error)
     sweep = conformal_sweep(calibration, scores, failures, sorted(cfg.alphas))
+    # What the traces and the threshold are on: the window sum, or its time-conditioned ratio.
+    summed = "window sum" if record.baseline is None else "time-conditioned window sum"
     result = {
         "task": info["run"]["task"],
         "episodes": len(episodes),
@@ -118,18 +126,14 @@ def detect(cfg: DetectionConfig) -> dict:
         if conformal is not None
         else {"alpha": cfg.alpha, "unavailable": conformal_missing},
         "conformal_sweep": sweep,
-        "lead_time_definition": "steps from the first window sum above the threshold to the episode's end"
-        if record.baseline is None
-        else "steps from the first time-conditioned window sum above the threshold to the episode's end",
+        "lead_time_definition": f"steps from the first {summed} above the threshold to the episode's end",
     }
     output_dir = Path(cfg.output_dir or Path(cfg.eval_dir) / "detection")
     thresholds = {f"conformal a={cfg.alpha}": conformal} if conformal is not None else {}
     if record.method == "argmax":
         thresholds = {"argmax": record.threshold, **thresholds}
     title = f"{result['task']}: {len(episodes)} {info['run']['split']} episodes"
-    score_label = (
-        "sliding-window sum of uncertainty" if record.baseline is None else "window sum / success baseline"
-    )
+    score_label = WINDOW_SUM_LABEL if record.baseline is None else "window sum / success baseline"
     result["plots"] = [
         p.name
         for p in plot_detection(scores, failures, traces, thresholds, sweep, output_dir, title, score_label)
