@@ -84,6 +84,10 @@ class TrainStageConfig:
             I row on the same test scenes, detection), and the results hold each row per seed, its mean and
             standard deviation over the seeds, and each recovery row's rescue against its own seed's
             BVMC, pooled over the seeds. The Table I rows themselves stay those of `seed`.
+        vmc: train, check and evaluate VMC (Table I's baseline row) beside BVMC; false: BVMC and its
+            recovery rows alone, for a study of introspection and recovery that needs no VMC row (VMC's
+            training is the longest stage of a chain). BVMC's stages are the whole study's, fingerprints
+            included: the same command without it later adds VMC's stages and redoes none.
 
     Every run trains from `seed` (and again from each of `extra_seeds`); the final checkpoint is the one
     evaluated.
@@ -98,6 +102,12 @@ class TrainStageConfig:
     device: str = "auto"
     policy: TrainPolicyConfig = field(default_factory=TrainPolicyConfig)
     extra_seeds: list[int] = field(default_factory=list)
+    vmc: bool = True
+
+    @property
+    def policy_types(self) -> tuple[str, ...]:
+        """The policy types the study trains: vmc (unless `vmc` is off), then bvmc."""
+        return POLICY_TYPES if self.vmc else ("bvmc",)
 
     @property
     def seeds(self) -> list[int]:

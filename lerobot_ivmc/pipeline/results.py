@@ -14,7 +14,7 @@ from lerobot_ivmc.atomic_files import write_json_atomic
 from lerobot_ivmc.evaluation.compare import EVAL_INFO_FILE, paired_outcomes, rescue_record
 from lerobot_ivmc.evaluation.perception_check import DRIVERS as PERCEPTION_DRIVERS
 from lerobot_ivmc.evaluation.success_by_uncertainty import most_negative_rho
-from lerobot_ivmc.pipeline.config import POLICY_TYPES, PipelineConfig
+from lerobot_ivmc.pipeline.config import PipelineConfig
 from lerobot_ivmc.pipeline.paper_table import PAPER_TABLE
 from lerobot_ivmc.pipeline.recovery_choice import CHOSEN, chain_choice
 from lerobot_ivmc.pipeline.runner import StageResult
@@ -50,7 +50,7 @@ def table_rows(cfg: PipelineConfig, stages: list[Stage], fcs: list[int]) -> list
     for fc in fcs:
         infos = {
             method: load_eval_info(stage_output(stages, eval_row_stage(fc, method)))
-            for method in ["vmc", *cfg.recovery_modes]
+            for method in table_methods(cfg)
         }
         for method, info in infos.items():
             row = {
@@ -119,7 +119,7 @@ def training_seed_rows(
     rows, recovery_rows = [], []
     for fc in fcs:
         seeds = [s for s in cfg.train.seeds if chain_ended(cfg, fc, s, ended)]
-        for method in ["vmc", *cfg.recovery_modes]:
+        for method in table_methods(cfg):
             for train_seed in seeds:
                 extra = None if train_seed == cfg.train.seed else train_seed
                 info = load_eval_info(stage_output(stages, eval_row_stage(fc, method, extra)))
@@ -149,7 +149,7 @@ def perception_rows(cfg: PipelineConfig, stages: list[Stage], ended: set[str]) -
     truth on validation scenes (cm), watching the expert and acting, and whether it passed the limit."""
     rows = []
     for fc in cfg.train.num_fc_layers:
-        for policy_type in POLICY_TYPES:
+        for policy_type in cfg.train.policy_types:
             for train_seed in cfg.train.seeds:
                 seed = None if train_seed == cfg.train.seed else train_seed
                 name = perception_stage_name(train_stage_name(policy_type, fc, seed))
@@ -170,6 +170,11 @@ def perception_rows(cfg: PipelineConfig, stages: list[Stage], ended: set[str]) -
                     }
                 )
     return rows
+
+
+def table_methods(cfg: PipelineConfig) -> list[str]:
+    """The study's Table I rows: "vmc" (where it trains VMC), then each BVMC row of `recovery_modes`."""
+    return [*(["vmc"] if cfg.train.vmc else []), *cfg.recovery_modes]
 
 
 def load_eval_info(folder: Path) -> dict:

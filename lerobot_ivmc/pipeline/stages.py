@@ -21,7 +21,7 @@ from lerobot_ivmc.constants import EVAL_INFO_FILE, LAST_PRETRAINED_MODEL, PRETRA
 from lerobot_ivmc.envs import task_env_class
 from lerobot_ivmc.evaluation.perception_check import RECORD_FILE as PERCEPTION_RECORD
 from lerobot_ivmc.hardware import cpu_has_native_bf16
-from lerobot_ivmc.pipeline.config import CONTROL_ROWS, POLICY_TYPES, PipelineConfig, row_mode
+from lerobot_ivmc.pipeline.config import CONTROL_ROWS, PipelineConfig, row_mode
 from lerobot_ivmc.pipeline.stage_names import (
     COLLECT_STAGE,
     chain_folder,
@@ -341,9 +341,8 @@ def row_stages(
     folder = chain_folder(fc, train_seed)
     seed = f"--seed={cfg.seed}"
     bvmc = threshold.output / PRETRAINED_MODEL_DIR
-    rows = [
-        ("vmc", root / "train" / f"vmc_{folder}" / CHECKPOINT, None, train_stage_name("vmc", fc, train_seed))
-    ]
+    vmc = root / "train" / f"vmc_{folder}" / CHECKPOINT
+    rows = [("vmc", vmc, None, train_stage_name("vmc", fc, train_seed))] if cfg.train.vmc else []
     rows += [("bvmc", bvmc, mode, threshold.name) for mode in cfg.recovery_modes]
     # anchor reads a pushed object, or one held at the end, where the frame position head places it (and the
     # latter's goal too): a policy without that head reads them from the memory's heads instead.
@@ -461,7 +460,7 @@ def train_stages(
     # lerobot-ivmc-train checks the style against the dataset's record; here it also enters the fingerprint.
     policy_fields = {**t.policy.given(), "render_style": cfg.collect.env.render_style}
     stages = []
-    for policy_type in POLICY_TYPES:
+    for policy_type in t.policy_types:
         name = train_stage_name(policy_type, fc, train_seed)
         out = cfg.root.resolve() / "train" / f"{policy_type}_{chain_folder(fc, train_seed)}"
         stages.append(

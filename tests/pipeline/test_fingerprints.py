@@ -188,3 +188,15 @@ def test_a_time_conditioned_threshold_redoes_the_threshold_and_what_reads_it(
     assert changed == sorted(
         name for name in LITE_PICK_PLACE if name.startswith(("threshold", "eval_bvmc", "detect"))
     )
+
+
+def test_a_study_without_vmc_is_the_whole_study_less_vmc_s_stages(monkeypatch: pytest.MonkeyPatch) -> None:
+    """`--train.vmc=false` drops VMC's training, check and row, of every training seed, and leaves each
+    other stage as the whole study has it: adding VMC later redoes nothing done without it."""
+    monkeypatch.setattr(stages_module, "cpu_has_native_bf16", lambda: True)
+    args = [*LITE_PICK_PLACE_ARGS, "--train.extra_seeds=[2000]"]
+    whole = stage_fingerprints(parse_config(args))
+    without = stage_fingerprints(parse_config([*args, "--train.vmc=false"]))
+    vmc = [name for name in whole if name.startswith(("train_vmc", "check_vmc", "eval_vmc"))]
+    assert len(vmc) == 6
+    assert without == {name: found for name, found in whole.items() if name not in vmc}

@@ -420,3 +420,17 @@ def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Pa
     back = pipeline("--task=push", "--preset=smoke", f"--output_dir={out}", "--train.extra_seeds=[7]")
     assert back.returncode == 0, back.stdout[-3000:] + back.stderr[-3000:]
     assert back.stdout.count(": running") == 1 and "check_vmc_fc1: running" in back.stdout, back.stdout
+
+    # The same study without VMC (`--train.vmc=false`): BVMC's stages are the whole study's, so nothing
+    # runs, and the results hold BVMC's rows alone, as they were.
+    bvmc_only = pipeline(
+        "--task=push", "--preset=smoke", f"--output_dir={out}", "--train.extra_seeds=[7]", "--train.vmc=false"
+    )
+    assert bvmc_only.returncode == 0, bvmc_only.stdout[-3000:] + bvmc_only.stderr[-3000:]
+    assert ": running" not in bvmc_only.stdout and "train_vmc" not in bvmc_only.stdout, bvmc_only.stdout
+    without_vmc = json.loads((out / "results" / "push.json").read_text())
+    assert [r["method"] for r in without_vmc["rows"]] == ROWS[1:]
+    assert all(set(r["paired"]) <= {"vs_none"} for r in without_vmc["rows"])
+    assert without_vmc["training_seeds"]["pooled_rescue"] == spread["pooled_rescue"]
+    assert [r["model"] for r in without_vmc["perception"]] == ["BVMC", "BVMC"]
+    assert "| VMC |" not in (out / "results" / "table.md").read_text()
