@@ -43,7 +43,14 @@ def main() -> None:
     args = parser.parse_args()
     val, val_successes = load_episodes(args.val_dir, args.window)
     test, test_successes = load_episodes(args.test_dir, args.window)
-    q, baseline, val_scores, _ = fit_time_baseline(val, val_successes, args.window, args.quantiles)
+    q, baseline, val_scores, val_auroc = fit_time_baseline(val, val_successes, args.window, args.quantiles)
+    window_auroc = auroc([s.max() for s in val], ~val_successes)
+    # `lerobot-ivmc-threshold --score=auto` keeps the time-conditioned score only where it is strictly better.
+    kept = "time-conditioned" if val_auroc > window_auroc else "max window sum"
+    print(
+        f"{args.val_dir}: validation AUROC, max window sum {window_auroc:.3f}, time-conditioned "
+        f"(cross-fitted) {val_auroc:.3f}: --score=auto keeps the {kept}"
+    )
     threshold, _ = argmax_threshold(val_scores, val_successes)
     scores = np.array([normalized_sums(sums, baseline, args.window).max() for sums in test])
     failures = ~test_successes
