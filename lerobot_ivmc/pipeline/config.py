@@ -28,13 +28,24 @@ DEFAULT_MODES = ("none", "rand", "init", "min_unc", "anchor")
 # Rows that run a recovery mode with flags of their own: anchor's planner fired from the first step the
 # trigger may fire (threshold 0), the control that measures what the introspection's timing adds to anchor.
 CONTROL_ROWS = {"anchor_control": ("anchor", ("--recovery.threshold=0",))}
-STUDY_ROWS = (*RECOVERY_MODES, *CONTROL_ROWS)
+# Rows that run reach with its carry to the believed goal (docs/recovery.md): holding the object there, or
+# set down and let go; which of them a task needs is chosen on validation scenes like any mode that knows
+# no task (`--recovery_choice`).
+VARIANT_ROWS = {
+    "reach_carry": ("reach", ("--recovery.reach.carry=true",)),
+    "reach_place": ("reach", ("--recovery.reach.carry=true", "--recovery.reach.release=true")),
+}
+ROW_FLAGS = {**CONTROL_ROWS, **VARIANT_ROWS}
+STUDY_ROWS = (*RECOVERY_MODES, *ROW_FLAGS)
+# The rows `--recovery_choice` may choose among: the modes that know no task and their variants.
+TASK_FREE_ROWS = (*TASK_FREE_MODES, *VARIANT_ROWS)
 POLICY_TYPES = ("vmc", "bvmc")
 
 
 def row_mode(row: str) -> str:
-    """The recovery mode a BVMC row of `--recovery_modes` runs: its own name, or a control row's mode."""
-    return CONTROL_ROWS[row][0] if row in CONTROL_ROWS else row
+    """The recovery mode a BVMC row of `--recovery_modes` runs: its own name, or a control or variant
+    row's mode."""
+    return ROW_FLAGS[row][0] if row in ROW_FLAGS else row
 
 
 @dataclass
@@ -362,9 +373,9 @@ class PipelineConfig:
         choice = self.recovery_choice
         if not choice:
             return
-        if any(m not in TASK_FREE_MODES for m in choice) or len(set(choice)) != len(choice):
+        if any(m not in TASK_FREE_ROWS for m in choice) or len(set(choice)) != len(choice):
             raise ValueError(
-                f"--recovery_choice chooses among distinct modes that know no task, {TASK_FREE_MODES}; "
+                f"--recovery_choice chooses among distinct modes that know no task, {TASK_FREE_ROWS}; "
                 f"got {choice}."
             )
         missing = [m for m in [*choice, "none"] if m not in self.recovery_modes]

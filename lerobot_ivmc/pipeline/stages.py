@@ -21,7 +21,7 @@ from lerobot_ivmc.constants import EVAL_INFO_FILE, LAST_PRETRAINED_MODEL, PRETRA
 from lerobot_ivmc.envs import task_env_class
 from lerobot_ivmc.evaluation.perception_check import RECORD_FILE as PERCEPTION_RECORD
 from lerobot_ivmc.hardware import cpu_has_native_bf16
-from lerobot_ivmc.pipeline.config import CONTROL_ROWS, PipelineConfig, row_mode
+from lerobot_ivmc.pipeline.config import ROW_FLAGS, PipelineConfig, row_mode
 from lerobot_ivmc.pipeline.stage_names import (
     COLLECT_STAGE,
     chain_folder,
@@ -410,7 +410,7 @@ def choice_stages(
             th.n_episodes,
             th.batch_size,
             f"--seed={cfg.seed}",
-            mode,
+            row_mode(mode),
             threshold.name,
             split="val",
             recovery_flags=bvmc_row_flags(mode, chain, []),
@@ -422,10 +422,10 @@ def choice_stages(
 
 def bvmc_row_flags(row: str | None, chain: ChainFlags, anchor_flags: list[str]) -> list[str]:
     """The recovery flags of a Table I row: none for VMC's (`row` None), the chain's for a BVMC row,
-    `anchor_flags` for anchor's rows and a control row's own flags."""
+    `anchor_flags` for anchor's rows and a control or variant row's own flags."""
     if row is None:
         return []
-    own = CONTROL_ROWS[row][1] if row in CONTROL_ROWS else ()
+    own = ROW_FLAGS[row][1] if row in ROW_FLAGS else ()
     return [*chain.bvmc_flags, *(anchor_flags if row_mode(row) == "anchor" else []), *own]
 
 
@@ -609,7 +609,13 @@ def strategy_settings(mode: str | None, task: str | None) -> dict:
             **({"retry_start_radius": retry.start_radius} if retry.start_radius else {}),
         }
     if mode == "reach":
-        return {"reach": asdict(ReachSettings())}
+        reach = asdict(ReachSettings())
+        # (the newer fields only where they act, so the recorded rows keep their fingerprints)
+        if not reach["carry"]:
+            del reach["carry"], reach["goal_steps"], reach["release"]
+        if reach["object"] == "memory":
+            del reach["object"]
+        return {"reach": reach}
     if mode != "anchor":
         return {}
     anchor = AnchorSettings()

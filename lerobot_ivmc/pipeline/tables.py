@@ -13,6 +13,10 @@ METHOD_LABELS = {
     "anchor_control": "BVMC + anchor at threshold 0 (anchor's control: fired from the first step it may)",
     "retry": "BVMC + retry (beyond the paper, no task knowledge)",
     "reach": "BVMC + reach (beyond the paper, no task knowledge)",
+    "reach_carry": "BVMC + reach, carried to the believed goal (beyond the paper, no task knowledge)",
+    "reach_place": (
+        "BVMC + reach, carried to the believed goal and let go (beyond the paper, no task knowledge)"
+    ),
     "chosen": "BVMC + the mode that knows no task chosen on validation scenes",
 }
 

@@ -16,6 +16,7 @@ ANCHOR_GOAL = ("memory", "frame")
 ANCHOR_HELD_OFFSET = ("believed", "grasped")
 ANCHOR_CARRY_MEMORY = ("keep", "reset")
 REACH_BELIEF = ("look", "start", "now")
+REACH_OBJECT = ("memory", "frame")
 
 # anchor's goal is the mean of the goals believed at this many least uncertain steps: one step's belief is
 # noisy, and fewer steps can all fall after the belief drifted
@@ -236,6 +237,9 @@ class ReachSettings:
             `belief_steps` steps (the scene before the policy touched it); "now", the belief of the step
             the trigger fires at.
         belief_steps: the steps the "look" and "start" beliefs average.
+        object: which head the object beliefs come from: "memory", the object head on the memory; "frame",
+            the frame position head on each frame alone (no memory to carry a false belief; a policy
+            trained with it).
         grasp: after arriving above the object, descend to its believed centre and close the fingers before
             handing back (false: hand back above it with open fingers, for an object the task never grasps).
         grasp_tries: with `grasp`, grasps tried while the fingers close on nothing: the first at the
@@ -243,21 +247,43 @@ class ReachSettings:
         search_radius: metres from the believed centre of the later grasps.
         hover: metres above the believed centre the fingers rise to between grasps.
         settle_steps: steps the fingers are commanded shut in place when a grasp closes them.
-        steps: most steps of each move (to the object, or one grasp).
+        steps: most steps of each move (to the object, one grasp, or the carry).
+        carry: after a grasp that holds (or at once, where the fingers hold the object when the trigger
+            fires), carry the object to the goal the policy believed on its `goal_steps` least uncertain
+            steps (the goal head: where the object ends in the demos) and hold it there, then hand back
+            with a fresh memory (false: hand back after the grasp). Needs a policy with the goal head.
+        goal_steps: with `carry`, the least uncertain normal steps whose goal beliefs are averaged.
+        release: with `carry`, set the object down 2 cm above the goal and open the fingers (for a task
+            that ends with the object let go; false: hold it at the goal).
     """
 
     belief: str = "look"
     belief_steps: int = 10
+    object: str = "memory"
     grasp: bool = True
     grasp_tries: int = 3
     search_radius: float = 0.03
     hover: float = 0.05
     settle_steps: int = 10
     steps: int = 80
+    carry: bool = False
+    goal_steps: int = ANCHOR_GOAL_STEPS
+    release: bool = False
 
     def __post_init__(self) -> None:
         check_choice("reach.belief", self.belief, REACH_BELIEF)
-        for name in ("belief_steps", "steps", "grasp_tries"):
+        check_choice("reach.object", self.object, REACH_OBJECT)
+        if self.release and not self.carry:
+            raise ValueError(
+                "--recovery.reach.release=true lets go of the object the carry brought to the goal: add "
+                "--recovery.reach.carry=true or drop the release."
+            )
+        if self.carry and not self.grasp:
+            raise ValueError(
+                "--recovery.reach.carry=true carries the object the grasp holds: drop "
+                "--recovery.reach.grasp=false or the carry."
+            )
+        for name in ("belief_steps", "steps", "grasp_tries", "goal_steps"):
             if getattr(self, name) < 1:
                 raise ValueError(f"--recovery.reach.{name} must be >= 1, got {getattr(self, name)}.")
         for name in ("search_radius", "hover"):

@@ -54,11 +54,14 @@ def test_studies_begun_earlier_keep_their_stage_fingerprints(monkeypatch: pytest
     found: dict[str, str] = {}
     for stage in build_stages(cfg):
         found[stage.name] = fingerprint(stage, found)
-    # The retry row, anchor's control row and the choice's validation runs joined the lite preset after
-    # these studies began: a study resumed runs them, and redoes nothing else.
+    # The retry row, anchor's control row, reach's carry rows and the choice's validation runs joined the lite
+    # preset after these studies began: a study resumed runs them, and redoes nothing else.
     assert {name: found[name] for name in LITE_PICK_PLACE} == LITE_PICK_PLACE
-    choices = {f"choice_bvmc_fc1_{mode}" for mode in ("rand", "init", "min_unc", "retry")}
-    rows = {"eval_bvmc_fc1_retry", "eval_bvmc_fc1_anchor_control"}
+    choices = {
+        f"choice_bvmc_fc1_{mode}"
+        for mode in ("rand", "init", "min_unc", "retry", "reach_carry", "reach_place")
+    }
+    rows = {f"eval_bvmc_fc1_{row}" for row in ("retry", "anchor_control", "reach_carry", "reach_place")}
     assert found.keys() - LITE_PICK_PLACE.keys() == rows | choices
     train = next(stage for stage in build_stages(cfg) if stage.name == "train_bvmc_fc1")
     assert "trained_task" not in train.settings and train.settings["render_style"] == "fast"
@@ -141,14 +144,17 @@ def test_episode_streams_redo_the_bvmc_rollouts_only(monkeypatch: pytest.MonkeyP
 
 
 @pytest.mark.parametrize(
-    ("settings", "changed_default", "row"),
-    [("ReachSettings", {"grasp_tries": 5}, "reach"), ("RetrySettings", {"steps": 30}, "retry")],
+    ("settings", "changed_default", "rows"),
+    [
+        ("ReachSettings", {"grasp_tries": 5}, ["reach", "reach_carry", "reach_place"]),
+        ("RetrySettings", {"steps": 30}, ["retry"]),
+    ],
 )
 def test_a_changed_default_of_a_generic_strategy_redoes_its_rows_only(
-    settings: str, changed_default: dict, row: str, monkeypatch: pytest.MonkeyPatch
+    settings: str, changed_default: dict, rows: list[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """reach's and retry's defaults are chosen on validation scenes too: a changed one redoes its rows
-    only (its test row and its validation run for the row "chosen")."""
+    only (its test rows, reach's carry rows included, and their validation runs for the row "chosen")."""
     cfg = parse_config(["--task=pick-place-v3", "--preset=metaworld", "--output_dir=/studies/pp"])
     classes = {"ReachSettings": ReachSettings, "RetrySettings": RetrySettings}
 
@@ -156,7 +162,7 @@ def test_a_changed_default_of_a_generic_strategy_redoes_its_rows_only(
     monkeypatch.setattr(stages_module, settings, functools.partial(classes[settings], **changed_default))
     after = stage_fingerprints(cfg)
     changed = sorted(name for name in before if before[name] != after[name])
-    assert changed == [f"choice_bvmc_fc1_{row}", f"eval_bvmc_fc1_{row}"]
+    assert changed == sorted(f"{stage}_bvmc_fc1_{row}" for stage in ("choice", "eval") for row in rows)
 
 
 def test_a_continuous_gripper_study_retrains_from_the_same_demos(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -20,12 +20,13 @@ from lerobot_ivmc.recovery.strategy_settings import ReachSettings
 TABLE = 0.02  # the synthetic world's table: the grip point cannot go lower
 
 
-def stub_controller(belief: np.ndarray, start: np.ndarray) -> SimpleNamespace:
-    """What `reach` reads of the controller: a policy whose object head believes `belief` (metres, identity
-    statistics), the start grip position, the robot and the traces."""
-    decoded = (None, None, None, torch.as_tensor(belief, dtype=torch.float32)[None])
+def stub_controller(belief: np.ndarray, start: np.ndarray, goal: np.ndarray | None = None) -> SimpleNamespace:
+    """What `reach` reads of the controller: a policy whose object head believes `belief` (and its goal head
+    `goal`; metres, identity statistics), the start grip position, the robot and the traces."""
+    heads = [belief] if goal is None else [belief, goal]
+    decoded = (None, None, None, *(torch.as_tensor(h, dtype=torch.float32)[None] for h in heads))
     policy = SimpleNamespace(
-        config=SimpleNamespace(aux_indices=(0, 1, 2, 3, 4, 5)),
+        config=SimpleNamespace(aux_indices=(0, 1, 2, 3, 4, 5), goal_head=goal is not None),
         net=SimpleNamespace(decode=lambda *args, **kwargs: decoded),
     )
     trace = BatchTrace(events=[[{}]])
@@ -33,19 +34,21 @@ def stub_controller(belief: np.ndarray, start: np.ndarray) -> SimpleNamespace:
         policy=policy,
         object_positions=lambda normalised: normalised.float().numpy().astype(np.float64),
         initial_grip=start[None],
+        last_gripper=np.array([FAKE.gripper_open]),
         embodiment=FAKE,
         step=0,
         traces=[trace],
     )
 
 
-def run_reach(settings: ReachSettings, belief, obj, steps: int = 400) -> tuple[list, list, list]:
+def run_reach(settings: ReachSettings, belief, obj, steps: int = 400, goal=None) -> tuple[list, list, list]:
     """Fire `reach` at the first step on the synthetic robot and world (an object at `obj` is held when
     the fingers close within 1 cm of it); return the manoeuvres in order, the grip path and the gripper
     commands, until it hands back."""
     strategy = make_strategy(RecoveryConfig(mode="reach", reach=settings))
     start, obj = np.array([0.0, 0.0, 0.2]), np.asarray(obj, dtype=np.float64)
-    ctx = stub_controller(np.asarray(belief, dtype=np.float64), start)
+    goal = None if goal is None else np.asarray(goal, dtype=np.float64)
+    ctx = stub_controller(np.asarray(belief, dtype=np.float64), start, goal)
     strategy.start_batch(1)
     grip, fingers, closed = start.copy(), np.array([1.0]), False
     strategy.observe(ctx, SimpleNamespace(embedding=None), np.zeros(1), np.ones(1, dtype=bool))
@@ -100,6 +103,39 @@ def test_reach_without_grasp_stops_above_the_belief_at_the_start_height() -> Non
     manoeuvres, path, commands = run_reach(settings, belief, belief)
     assert len(manoeuvres) == 1 and set(commands) == {FAKE.gripper_open}
     np.testing.assert_allclose(path[-1], [0.1, 0.05, 0.2], atol=0.011)
+
+
+@pytest.mark.parametrize("release", [False, True])
+def test_reach_carries_what_its_grasp_holds_to_the_believed_goal(release: bool) -> None:
+    """With `carry`, a grasp that holds is followed by a carry that brings the object, where the grasp
+    holds it from the grip point, onto the goal the goal head believes; `release` sets it down there and
+    lets go, else the fingers stay closed to the end."""
+    obj, goal = np.array([0.1, 0.05, 0.0]), np.array([-0.1, 0.2, 0.05])
+    settings = ReachSettings(carry=True, release=release)
+    manoeuvres, path, commands = run_reach(settings, obj, obj, goal=goal)
+    assert [type(m).__name__ for m in manoeuvres] == ["ToStart", "Look", "Grasp", "WaypointMoves"]
+    # The table held the grip point 2 cm above the object's centre at the grasp: so it is carried.
+    place = goal - (obj - np.array([obj[0], obj[1], TABLE]))
+    if release:  # set down 2 cm above the goal, let go there, then rise
+        opened = commands.index(FAKE.gripper_open, commands.index(FAKE.gripper_close))
+        np.testing.assert_allclose(path[opened], place + [0.0, 0.0, 0.02], atol=0.011)
+        assert commands[-1] == FAKE.gripper_open and path[-1][2] > path[opened][2] + 0.04
+    else:  # closed from the grasp to the end, the object on the goal
+        grasped = commands.index(FAKE.gripper_close)
+        assert set(commands[grasped:]) == {FAKE.gripper_close}
+        np.testing.assert_allclose(path[-1], place, atol=0.011)
+    np.testing.assert_allclose(path[-1][:2], goal[:2], atol=0.011)
+
+
+def test_reach_carry_needs_the_goal_head_and_a_grasp() -> None:
+    strategy = make_strategy(RecoveryConfig(mode="reach", reach=ReachSettings(carry=True)))
+    no_goal = stub_controller(np.zeros(3), np.zeros(3)).policy
+    with pytest.raises(ValueError, match="needs a policy trained with --policy.goal_head=true"):
+        strategy.check(no_goal, IDENTITY_STATS)
+    with pytest.raises(ValueError, match="reach.carry=true carries the object the grasp holds"):
+        ReachSettings(carry=True, grasp=False)
+    with pytest.raises(ValueError, match="add --recovery.reach.carry=true"):
+        ReachSettings(release=True)
 
 
 def test_a_waypoint_path_hands_back_with_a_fresh_memory() -> None:
@@ -157,3 +193,17 @@ def test_reach_reads_nothing_of_the_simulators_privileged_state() -> None:
         return np.array(taken)
 
     np.testing.assert_array_equal(actions(False), actions(True))
+
+
+def test_reach_carries_at_once_what_the_hand_holds_when_the_trigger_fires() -> None:
+    """Holding the object at the trigger (the fingers rest apart after a "close"), carry goes straight to
+    the goal with the object where the object head places it in the hand, without a look or a grasp."""
+    obj, goal, grip = np.array([0.0, 0.0, 0.17]), np.array([-0.1, 0.2, 0.05]), np.array([0.0, 0.0, 0.2])
+    strategy = make_strategy(RecoveryConfig(mode="reach", reach=ReachSettings(carry=True)))
+    ctx = stub_controller(obj, grip, goal)
+    ctx.last_gripper = np.array([FAKE.gripper_close])
+    strategy.start_batch(1)
+    strategy.observe(ctx, SimpleNamespace(embedding=None), np.zeros(1), np.ones(1, dtype=bool))
+    carry, event = strategy.begin(ctx, 0, grip, np.array([[0.5]]))
+    assert type(carry).__name__ == "WaypointMoves" and event["holding"] is True
+    np.testing.assert_allclose(carry.target, goal + [0.0, 0.0, 0.03])  # the grip 3 cm above the object

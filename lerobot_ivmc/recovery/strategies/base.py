@@ -16,6 +16,10 @@ from lerobot_ivmc.recovery.manoeuvres import Manoeuvre
 if TYPE_CHECKING:
     from lerobot_ivmc.recovery.controller import IntrospectiveController
 
+# The object's and the goal's parts of the frame position head's outputs (`policy.frame_positions`: EE 0:3,
+# object 3:6, goal 6:9), read from one frame's CNN map without the memory.
+OBJECT_POSITION, GOAL_POSITION = slice(3, 6), slice(6, 9)
+
 
 class RecoveryStrategy:
     """A recovery mode. Subclasses set `name` and implement `begin`; the other hooks do nothing here.

@@ -21,14 +21,11 @@ from lerobot_ivmc.recovery.anchor import (
 )
 from lerobot_ivmc.recovery.config import RecoveryConfig
 from lerobot_ivmc.recovery.manoeuvres import Manoeuvre
-from lerobot_ivmc.recovery.strategies.base import RecoveryStrategy
+from lerobot_ivmc.recovery.strategies.base import GOAL_POSITION, OBJECT_POSITION, RecoveryStrategy
 from lerobot_ivmc.recovery.strategies.registry import register_strategy
 
 if TYPE_CHECKING:
     from lerobot_ivmc.recovery.controller import IntrospectiveController
-
-# The object's and the goal's parts of the frame position head's outputs (EE 0:3, object 3:6, goal 6:9).
-OBJECT_POSITION, GOAL_POSITION = slice(3, 6), slice(6, 9)
 
 
 @register_strategy("anchor")

@@ -3,7 +3,9 @@ failures it targets end with the policy's object belief gone astray (it closes t
 then believes the object in the empty hand). When the trigger fires: look from the start pose with a fresh
 memory (the object may have moved since the policy last saw it right), move above where the object head
 then believes the object, descend and close on it (`grasp`), trying points around it while the fingers
-close on nothing; then hand back to the policy with a fresh memory."""
+close on nothing; then hand back to the policy with a fresh memory. With `carry`, a grasp that holds (or
+a hand that holds the object when the trigger fires) is followed by a carry to where the policy believed
+the goal on its least uncertain steps (the goal head, learned from where the object ends in the demos)."""
 
 from __future__ import annotations
 
@@ -13,9 +15,10 @@ import numpy as np
 from torch import Tensor
 
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy, MCPrediction
+from lerobot_ivmc.recovery.anchor import BeliefAnchor, carry_to_goal
 from lerobot_ivmc.recovery.config import RecoveryConfig
 from lerobot_ivmc.recovery.manoeuvres import REACH, Manoeuvre, Stop, WaypointPath, above
-from lerobot_ivmc.recovery.strategies.base import RecoveryStrategy
+from lerobot_ivmc.recovery.strategies.base import OBJECT_POSITION, RecoveryStrategy
 from lerobot_ivmc.recovery.strategies.registry import register_strategy
 
 if TYPE_CHECKING:
@@ -55,12 +58,23 @@ class ReachRecovery(RecoveryStrategy):
         self.belief_counts = np.zeros(0)
         self.beliefs_now = np.zeros((0, 3))
         self.looking = np.zeros(0, dtype=bool)  # per rollout, whether its look's beliefs are being read
+        self.goals: list[BeliefAnchor] = []  # with `carry`, per rollout, its goal beliefs
 
     def check(self, policy: BVMCPolicy, state_stats: tuple[Tensor, Tensor] | None) -> None:
         if policy.config.aux_indices is None:
             raise ValueError(
                 "--recovery.mode=reach reads the policy's object head: it needs a policy trained on a "
                 "dataset with observation.environment_state (auxiliary heads); use --recovery.mode=retry."
+            )
+        if self.settings.reach.object == "frame" and not getattr(policy.config, "frame_position_head", False):
+            raise ValueError(
+                "--recovery.reach.object=frame reads the policy's frame position head: it needs a policy "
+                "trained with --policy.frame_position_head=true; pass --recovery.reach.object=memory."
+            )
+        if self.settings.reach.carry and not getattr(policy.config, "goal_head", False):
+            raise ValueError(
+                "--recovery.reach.carry=true carries the object to the goal the policy believes: it needs a "
+                "policy trained with --policy.goal_head=true; drop the carry for this one."
             )
         if state_stats is None:
             raise ValueError("--recovery.mode=reach needs the statistics of observation.state (state_stats).")
@@ -70,6 +84,7 @@ class ReachRecovery(RecoveryStrategy):
         self.belief_counts = np.zeros(batch_size)
         self.beliefs_now = np.zeros((batch_size, 3))
         self.looking = np.zeros(batch_size, dtype=bool)
+        self.goals = [BeliefAnchor(self.settings.reach.goal_steps) for _ in range(batch_size)]
 
     def observe(
         self,
@@ -79,9 +94,18 @@ class ReachRecovery(RecoveryStrategy):
         normal: np.ndarray,
     ) -> None:
         """Read where the object head believes the object (metres); add up the beliefs of the episode's
-        first steps ("start") or of the steps still at the start pose after a look's memory reset."""
-        outputs = ctx.policy.net.decode(prediction.embedding, stochastic=False, with_goal=False)
-        self.beliefs_now = ctx.object_positions(outputs[3])
+        first steps ("start") or of the steps still at the start pose after a look's memory reset; with
+        `carry`, record each normal step's believed goal with its uncertainty."""
+        carry = self.settings.reach.carry
+        outputs = ctx.policy.net.decode(prediction.embedding, stochastic=False, with_goal=carry)
+        believed = outputs[3]
+        if self.settings.reach.object == "frame":  # this frame's reading, without the memory
+            believed = ctx.policy.frame_positions[:, OBJECT_POSITION]
+        self.beliefs_now = ctx.object_positions(believed)
+        if carry:
+            goals = ctx.object_positions(outputs[4])
+            for row in np.flatnonzero(normal):
+                self.goals[row].update(float(uncertainty[row]), goals[row])
         reading = self.looking.copy()
         if self.settings.reach.belief == "start" and ctx.step < self.settings.reach.belief_steps:
             reading |= normal
@@ -94,8 +118,32 @@ class ReachRecovery(RecoveryStrategy):
             return self.beliefs_now[row].copy()
         return self.belief_sums[row] / self.belief_counts[row]
 
+    def holding(self, ctx: IntrospectiveController, row: int, fingers: np.ndarray) -> bool:
+        """Whether rollout `row` holds something: it last commanded "close" and the fingers rest apart."""
+        return ctx.embodiment.closes(float(ctx.last_gripper[row])) and ctx.embodiment.holds(fingers[row])
+
+    def carry(self, ctx: IntrospectiveController, row: int, grip: np.ndarray, held: np.ndarray) -> Manoeuvre:
+        """Bring the object held at `held` (its believed centre, (3,)) over the anchored goal and down to
+        it, the fingers closed (with `release`, set it down there and open them); the policy then goes on
+        with a fresh memory."""
+        reach = self.settings.reach
+        goal = self.goals[row].goal
+        return carry_to_goal(
+            grip,
+            goal,
+            held - grip,
+            reach.steps,
+            self.settings.move_tolerance,
+            release=reach.release,
+            reset_memory=True,
+            embodiment=ctx.embodiment,
+        )
+
     def begin(self, ctx: IntrospectiveController, row: int, grip, fingers) -> tuple[Manoeuvre, dict]:
         reach, robot = self.settings.reach, ctx.embodiment
+        if reach.carry and self.holding(ctx, row, fingers):
+            carry = self.carry(ctx, row, grip, self.beliefs_now[row])
+            return carry, {"holding": True, "target": carry.target.round(4).tolist()}
         if reach.belief == "look":
             start = ctx.initial_grip[row]
             stops = [Stop(above(grip, start[2]), robot.gripper_open), Stop(start, robot.gripper_open)]
@@ -145,9 +193,11 @@ class ReachRecovery(RecoveryStrategy):
             manoeuvre, event_extra = self.reach(ctx, row, grip)
             ctx.traces[-1].events[row][-1].update(event_extra)
             return manoeuvre
-        if not isinstance(finished, Grasp) or finished.try_index + 1 >= reach.grasp_tries:
+        if not isinstance(finished, Grasp):
             return None
-        if robot.holds(fingers[row]):
+        if robot.holds(fingers[row]):  # the grasp held: carry what it grasped at its point
+            return self.carry(ctx, row, grip, finished.target) if reach.carry else None
+        if finished.try_index + 1 >= reach.grasp_tries:
             return None
         rise = Stop(above(grip, finished.obj[2] + reach.hover), robot.gripper_open)
         return self.grasp(ctx, finished.try_index + 1, finished.obj, [rise])
