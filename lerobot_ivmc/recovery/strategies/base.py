@@ -68,6 +68,13 @@ class RecoveryStrategy:
         """What rollout `row` does after `finished` ends: another manoeuvre, or None (the policy)."""
         return None
 
+    @staticmethod
+    def holding(ctx: IntrospectiveController, row: int, fingers: np.ndarray) -> bool:
+        """Whether rollout `row` holds the object: it last commanded "close" and the fingers rest apart
+        (`fingers`: (B, F), a strategy that `reads_fingers`)."""
+        embodiment = ctx.embodiment
+        return embodiment.closes(float(ctx.last_gripper[row])) and embodiment.holds(fingers[row])
+
     def normal_actions(
         self, ctx: IntrospectiveController, prediction: MCPrediction, actions: Tensor, normal: np.ndarray
     ) -> None:

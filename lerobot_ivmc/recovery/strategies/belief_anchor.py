@@ -92,11 +92,6 @@ class AnchorRecovery(RecoveryStrategy):
         for row in np.flatnonzero(normal):
             self.anchors[row].update(float(uncertainty[row]), goals[row])
 
-    def holding(self, ctx: IntrospectiveController, row: int, fingers: np.ndarray) -> bool:
-        """Whether rollout `row` holds the object: it last commanded "close" and the fingers rest apart."""
-        embodiment = ctx.embodiment
-        return embodiment.closes(float(ctx.last_gripper[row])) and embodiment.holds(fingers[row])
-
     def begin(
         self, ctx: IntrospectiveController, row: int, grip: np.ndarray, fingers: np.ndarray
     ) -> tuple[Manoeuvre, dict]:

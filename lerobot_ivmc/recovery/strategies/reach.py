@@ -118,10 +118,6 @@ class ReachRecovery(RecoveryStrategy):
             return self.beliefs_now[row].copy()
         return self.belief_sums[row] / self.belief_counts[row]
 
-    def holding(self, ctx: IntrospectiveController, row: int, fingers: np.ndarray) -> bool:
-        """Whether rollout `row` holds something: it last commanded "close" and the fingers rest apart."""
-        return ctx.embodiment.closes(float(ctx.last_gripper[row])) and ctx.embodiment.holds(fingers[row])
-
     def carry(self, ctx: IntrospectiveController, row: int, grip: np.ndarray, held: np.ndarray) -> Manoeuvre:
         """Bring the object held at `held` (its believed centre, (3,)) over the anchored goal and down to
         it, the fingers closed (with `release`, set it down there and open them); the policy then goes on
