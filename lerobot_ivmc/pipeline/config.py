@@ -29,11 +29,20 @@ DEFAULT_MODES = ("none", "rand", "init", "min_unc", "anchor")
 # trigger may fire (threshold 0), the control that measures what the introspection's timing adds to anchor.
 CONTROL_ROWS = {"anchor_control": ("anchor", ("--recovery.threshold=0",))}
 # Rows that run reach with its carry to the believed goal (docs/recovery.md): holding the object there, or
-# set down and let go; which of them a task needs is chosen on validation scenes like any mode that knows
-# no task (`--recovery_choice`).
+# set down and let go; with the memory's heads, or with the frame position head's readings and the held
+# object's believed offset unbounded (`_frame`). Which of them a task needs is chosen on validation scenes
+# like any mode that knows no task (`--recovery_choice`).
+CARRY, RELEASE = "--recovery.reach.carry=true", "--recovery.reach.release=true"
+ON_FRAMES = (
+    "--recovery.reach.object=frame",
+    "--recovery.reach.goal=frame",
+    "--recovery.reach.max_held_offset=0.5",
+)
 VARIANT_ROWS = {
-    "reach_carry": ("reach", ("--recovery.reach.carry=true",)),
-    "reach_place": ("reach", ("--recovery.reach.carry=true", "--recovery.reach.release=true")),
+    "reach_carry": ("reach", (CARRY,)),
+    "reach_place": ("reach", (CARRY, RELEASE)),
+    "reach_carry_frame": ("reach", (CARRY, *ON_FRAMES)),
+    "reach_place_frame": ("reach", (CARRY, RELEASE, *ON_FRAMES)),
 }
 ROW_FLAGS = {**CONTROL_ROWS, **VARIANT_ROWS}
 STUDY_ROWS = (*RECOVERY_MODES, *ROW_FLAGS)

@@ -34,7 +34,12 @@ from lerobot_ivmc.pipeline.stage_names import (
     threshold_stage_name,
     train_stage_name,
 )
-from lerobot_ivmc.recovery.strategy_settings import AnchorSettings, ReachSettings, RetrySettings
+from lerobot_ivmc.recovery.strategy_settings import (
+    MAX_HELD_OFFSET,
+    AnchorSettings,
+    ReachSettings,
+    RetrySettings,
+)
 
 CHECKPOINT = LAST_PRETRAINED_MODEL
 # The `--env.type` of each suite's tasks.
@@ -613,8 +618,9 @@ def strategy_settings(mode: str | None, task: str | None) -> dict:
         # (the newer fields only where they act, so the recorded rows keep their fingerprints)
         if not reach["carry"]:
             del reach["carry"], reach["goal_steps"], reach["release"]
-        if reach["object"] == "memory":
-            del reach["object"]
+        for name, first in (("object", "memory"), ("goal", "memory"), ("max_held_offset", MAX_HELD_OFFSET)):
+            if reach[name] == first:
+                del reach[name]
         return {"reach": reach}
     if mode != "anchor":
         return {}

@@ -17,6 +17,13 @@ METHOD_LABELS = {
     "reach_place": (
         "BVMC + reach, carried to the believed goal and let go (beyond the paper, no task knowledge)"
     ),
+    "reach_carry_frame": (
+        "BVMC + reach on the frame head, carried to the believed goal (beyond the paper, no task knowledge)"
+    ),
+    "reach_place_frame": (
+        "BVMC + reach on the frame head, carried to the believed goal and let go (beyond the paper, no task "
+        "knowledge)"
+    ),
     "chosen": "BVMC + the mode that knows no task chosen on validation scenes",
 }
 

@@ -17,6 +17,7 @@ ANCHOR_HELD_OFFSET = ("believed", "grasped")
 ANCHOR_CARRY_MEMORY = ("keep", "reset")
 REACH_BELIEF = ("look", "start", "now")
 REACH_OBJECT = ("memory", "frame")
+REACH_GOAL = ("memory", "frame")
 
 # anchor's goal is the mean of the goals believed at this many least uncertain steps: one step's belief is
 # noisy, and fewer steps can all fall after the belief drifted
@@ -255,6 +256,11 @@ class ReachSettings:
         goal_steps: with `carry`, the least uncertain normal steps whose goal beliefs are averaged.
         release: with `carry`, set the object down 2 cm above the goal and open the fingers (for a task
             that ends with the object let go; false: hold it at the goal).
+        goal: with `carry`, which head the goal beliefs come from: "memory", the goal head on the memory;
+            "frame", the frame position head's goal reading of each frame (a policy trained with it).
+        max_held_offset: with `carry`, the most metres the believed centre of a held object may lie from
+            the grip point; a longer believed offset is shortened to it (the beliefs drift most in the
+            failures the carry rescues).
     """
 
     belief: str = "look"
@@ -269,10 +275,17 @@ class ReachSettings:
     carry: bool = False
     goal_steps: int = ANCHOR_GOAL_STEPS
     release: bool = False
+    goal: str = "memory"
+    max_held_offset: float = MAX_HELD_OFFSET
 
     def __post_init__(self) -> None:
         check_choice("reach.belief", self.belief, REACH_BELIEF)
         check_choice("reach.object", self.object, REACH_OBJECT)
+        check_choice("reach.goal", self.goal, REACH_GOAL)
+        if not 0 <= self.max_held_offset <= 0.5:
+            raise ValueError(
+                f"--recovery.reach.max_held_offset is in metres, in [0, 0.5]; got {self.max_held_offset}."
+            )
         if self.release and not self.carry:
             raise ValueError(
                 "--recovery.reach.release=true lets go of the object the carry brought to the goal: add "

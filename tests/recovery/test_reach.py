@@ -20,14 +20,20 @@ from lerobot_ivmc.recovery.strategy_settings import ReachSettings
 TABLE = 0.02  # the synthetic world's table: the grip point cannot go lower
 
 
-def stub_controller(belief: np.ndarray, start: np.ndarray, goal: np.ndarray | None = None) -> SimpleNamespace:
+def stub_controller(
+    belief: np.ndarray, start: np.ndarray, goal: np.ndarray | None = None, frame: np.ndarray | None = None
+) -> SimpleNamespace:
     """What `reach` reads of the controller: a policy whose object head believes `belief` (and its goal head
-    `goal`; metres, identity statistics), the start grip position, the robot and the traces."""
+    `goal`; metres, identity statistics), with `frame` (9,) its frame position head's reading (EE, object,
+    goal) if given, the start grip position, the robot and the traces."""
     heads = [belief] if goal is None else [belief, goal]
     decoded = (None, None, None, *(torch.as_tensor(h, dtype=torch.float32)[None] for h in heads))
     policy = SimpleNamespace(
-        config=SimpleNamespace(aux_indices=(0, 1, 2, 3, 4, 5), goal_head=goal is not None),
+        config=SimpleNamespace(
+            aux_indices=(0, 1, 2, 3, 4, 5), goal_head=goal is not None, frame_position_head=frame is not None
+        ),
         net=SimpleNamespace(decode=lambda *args, **kwargs: decoded),
+        frame_positions=None if frame is None else torch.as_tensor(frame, dtype=torch.float32)[None],
     )
     trace = BatchTrace(events=[[{}]])
     return SimpleNamespace(
@@ -207,3 +213,43 @@ def test_reach_carries_at_once_what_the_hand_holds_when_the_trigger_fires() -> N
     carry, event = strategy.begin(ctx, 0, grip, np.array([[0.5]]))
     assert type(carry).__name__ == "WaypointMoves" and event["holding"] is True
     np.testing.assert_allclose(carry.target, goal + [0.0, 0.0, 0.03])  # the grip 3 cm above the object
+
+
+@pytest.mark.parametrize("source", ["memory", "frame"])
+def test_reach_carry_reads_the_heads_it_is_told_and_bounds_the_held_offset(source: str) -> None:
+    """`reach.object` and `reach.goal` pick the memory's heads or the frame position head's reading of the
+    frame; the believed centre of the held object lies 8 cm from the grip point, which `max_held_offset`
+    shortens to its length (5 cm by default) or keeps whole (15 cm)."""
+    grip = np.array([0.0, 0.0, 0.2])
+    memory_obj, memory_goal = np.array([0.0, 0.0, 0.17]), np.array([-0.1, 0.2, 0.05])
+    frame_obj, frame_goal = np.array([0.08, 0.0, 0.2]), np.array([0.1, -0.2, 0.05])
+    frame = np.concatenate([grip, frame_obj, frame_goal])
+    targets = {}
+    for bound in (0.05, 0.15):
+        settings = ReachSettings(carry=True, object=source, goal=source, max_held_offset=bound)
+        strategy = make_strategy(RecoveryConfig(mode="reach", reach=settings))
+        ctx = stub_controller(memory_obj, grip, memory_goal, frame=frame)
+        ctx.last_gripper = np.array([FAKE.gripper_close])
+        strategy.check(ctx.policy, IDENTITY_STATS)
+        strategy.start_batch(1)
+        strategy.observe(ctx, SimpleNamespace(embedding=None), np.zeros(1), np.ones(1, dtype=bool))
+        targets[bound] = strategy.begin(ctx, 0, grip, np.array([[0.5]]))[0].target
+    if source == "memory":  # 3 cm below the grip: within both bounds
+        for target in targets.values():
+            np.testing.assert_allclose(target, memory_goal + [0.0, 0.0, 0.03])
+    else:
+        np.testing.assert_allclose(targets[0.15], frame_goal - [0.08, 0.0, 0.0], atol=1e-6)
+        np.testing.assert_allclose(targets[0.05], frame_goal - [0.05, 0.0, 0.0], atol=1e-6)
+
+
+def test_reach_frame_readings_need_the_frame_position_head() -> None:
+    policy = stub_controller(np.zeros(3), np.zeros(3), np.zeros(3)).policy
+    for name in ("object", "goal"):
+        settings = ReachSettings(carry=True, **{name: "frame"})
+        strategy = make_strategy(RecoveryConfig(mode="reach", reach=settings))
+        with pytest.raises(ValueError, match=f"pass --recovery.reach.{name}=memory"):
+            strategy.check(policy, IDENTITY_STATS)
+    with pytest.raises(ValueError, match="--recovery.reach.max_held_offset is in metres"):
+        ReachSettings(max_held_offset=-0.1)
+    with pytest.raises(ValueError, match="--recovery.reach.goal must be one of"):
+        ReachSettings(goal="later")

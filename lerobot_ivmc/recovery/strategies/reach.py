@@ -18,7 +18,7 @@ from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy, MCPrediction
 from lerobot_ivmc.recovery.anchor import BeliefAnchor, carry_to_goal
 from lerobot_ivmc.recovery.config import RecoveryConfig
 from lerobot_ivmc.recovery.manoeuvres import REACH, Manoeuvre, Stop, WaypointPath, above
-from lerobot_ivmc.recovery.strategies.base import OBJECT_POSITION, RecoveryStrategy
+from lerobot_ivmc.recovery.strategies.base import GOAL_POSITION, OBJECT_POSITION, RecoveryStrategy
 from lerobot_ivmc.recovery.strategies.registry import register_strategy
 
 if TYPE_CHECKING:
@@ -66,11 +66,14 @@ class ReachRecovery(RecoveryStrategy):
                 "--recovery.mode=reach reads the policy's object head: it needs a policy trained on a "
                 "dataset with observation.environment_state (auxiliary heads); use --recovery.mode=retry."
             )
-        if self.settings.reach.object == "frame" and not getattr(policy.config, "frame_position_head", False):
-            raise ValueError(
-                "--recovery.reach.object=frame reads the policy's frame position head: it needs a policy "
-                "trained with --policy.frame_position_head=true; pass --recovery.reach.object=memory."
-            )
+        reach = self.settings.reach
+        for name in ("object", "goal"):
+            if getattr(reach, name) == "frame" and not getattr(policy.config, "frame_position_head", False):
+                raise ValueError(
+                    f"--recovery.reach.{name}=frame reads the policy's frame position head: it needs a "
+                    "policy trained with --policy.frame_position_head=true; pass "
+                    f"--recovery.reach.{name}=memory."
+                )
         if self.settings.reach.carry and not getattr(policy.config, "goal_head", False):
             raise ValueError(
                 "--recovery.reach.carry=true carries the object to the goal the policy believes: it needs a "
@@ -103,7 +106,10 @@ class ReachRecovery(RecoveryStrategy):
             believed = ctx.policy.frame_positions[:, OBJECT_POSITION]
         self.beliefs_now = ctx.object_positions(believed)
         if carry:
-            goals = ctx.object_positions(outputs[4])
+            goals = outputs[4]
+            if self.settings.reach.goal == "frame":  # each frame's reading, averaged by the anchor
+                goals = ctx.policy.frame_positions[:, GOAL_POSITION]
+            goals = ctx.object_positions(goals)
             for row in np.flatnonzero(normal):
                 self.goals[row].update(float(uncertainty[row]), goals[row])
         reading = self.looking.copy()
@@ -131,6 +137,7 @@ class ReachRecovery(RecoveryStrategy):
             reach.steps,
             self.settings.move_tolerance,
             release=reach.release,
+            max_held_offset=reach.max_held_offset,
             reset_memory=True,
             embodiment=ctx.embodiment,
         )
