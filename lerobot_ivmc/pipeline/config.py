@@ -274,6 +274,8 @@ class PipelineConfig:
             BVMC rows, Fig. 3 and the data-budget probes): "batch" (the default, as the recorded studies
             drew them) or "episode" (each episode its own streams: a recovery row acts as plain BVMC on the
             same scene until its first trigger, and results do not depend on the batch size).
+        dry_run: list each stage as the same command would find it (done, to run, to resume, or to redo
+            because its settings or an upstream stage changed) and run nothing.
     """
 
     task: str = ""
@@ -294,6 +296,7 @@ class PipelineConfig:
     executor: ExecutorConfig = field(default_factory=ExecutorConfig)
     async_envs: bool = False
     random_streams: str = "batch"
+    dry_run: bool = False
 
     def __post_init__(self) -> None:
         self.validate()
@@ -323,6 +326,11 @@ class PipelineConfig:
         if bad_fc or not self.train.num_fc_layers:
             raise ValueError(
                 f"--train.num_fc_layers must list #fc values from (1, 2), got {self.train.num_fc_layers}."
+            )
+        if self.dry_run and self.regime.budget:
+            raise ValueError(
+                "--dry_run lists the stages of one study, and the data-budget rule (--regime.*) chooses its "
+                "study as it runs: drop --regime.* and pass the chosen study's flags and --output_dir."
             )
         if self.random_streams not in RANDOM_STREAMS:
             raise ValueError(

@@ -100,8 +100,9 @@ class LocalExecutor:
         self._next = None
 
 
-def claim_root(root: Path, identity: dict) -> None:
-    """Make `root` this study's folder, or refuse (touching nothing) if it holds something else."""
+def check_root(root: Path, identity: dict) -> bool:
+    """Whether `root` is already this study's folder (False: new or empty); refuse (touching nothing) one
+    that holds something else."""
     manifest = root / MANIFEST_FILE
     if manifest.is_file():
         found = json.loads(manifest.read_text())
@@ -110,13 +111,19 @@ def claim_root(root: Path, identity: dict) -> None:
                 f"{root} holds the study {found}, not {identity}: choose another --output_dir (nothing was "
                 "changed there)."
             )
-        return
+        return True
     if root.exists() and (not root.is_dir() or any(root.iterdir())):
         raise OutputFolderError(
             f"{root} exists and is not a pipeline folder (no {MANIFEST_FILE}): choose a new or empty "
             "--output_dir (nothing was changed there)."
         )
-    write_json_atomic(manifest, identity)
+    return False
+
+
+def claim_root(root: Path, identity: dict) -> None:
+    """Make `root` this study's folder, or refuse (touching nothing) if it holds something else."""
+    if not check_root(root, identity):
+        write_json_atomic(root / MANIFEST_FILE, identity)
 
 
 def study_lock(root: Path) -> RootLock:
@@ -136,6 +143,28 @@ def fingerprint(stage: Stage, upstream: dict[str, str]) -> str:
     if stage.settings:  # (only then, so that the stages without any keep their fingerprints)
         payload["settings"] = stage.settings
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def plan_stages(root: Path, stages: list[Stage]) -> list[tuple[str, str]]:
+    """What `run_stages` would do with each stage, in order: "done" (skipped), "new" (never run), "resume"
+    (killed, continued where it can be), "redo" (its settings or an upstream stage changed since it ran, or
+    it was killed and cannot resume)."""
+    fingerprints: dict[str, str] = {}
+    plan = []
+    for stage in stages:
+        fp = fingerprints[stage.name] = fingerprint(stage, fingerprints)
+        path = record_file(root, stage.name)
+        record = json.loads(path.read_text()) if path.is_file() else {}
+        if not record:
+            state = "new"
+        elif record.get("fingerprint") != fp:
+            state = "redo"
+        elif record.get("status") == "done" and stage.done_file.exists():
+            state = "done"
+        else:
+            state = "resume" if stage.output.exists() and stage.can_resume() else "redo"
+        plan.append((stage.name, state))
+    return plan
 
 
 def check_order(stages: list[Stage]) -> None:

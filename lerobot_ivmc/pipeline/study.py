@@ -20,7 +20,9 @@ from lerobot_ivmc.pipeline.runner import (
     LocalExecutor,
     PipelineError,
     StageResult,
+    check_root,
     claim_root,
+    plan_stages,
     run_stages,
     study_lock,
 )
@@ -121,8 +123,16 @@ def with_train_device(cfg: PipelineConfig, executor: Executor) -> PipelineConfig
 
 
 def run_pipeline(cfg: PipelineConfig, log=print) -> dict:
-    """Run (or resume) the study; returns the results JSON."""
+    """Run (or resume) the study; returns the results JSON (with `dry_run`, log the plan and return {})."""
     root = cfg.root
+    if cfg.dry_run:
+        check_root(root, {"task": cfg.task, "preset": cfg.preset})
+        plan = plan_stages(root, build_stages(with_train_device(cfg, LocalExecutor())))
+        for index, (name, state) in enumerate(plan, start=1):
+            log(f"[{index}/{len(plan)}] {name}: {state}")
+        to_run = sum(state != "done" for _, state in plan)
+        log(f"{to_run} of {len(plan)} stages would run in {root}; nothing was run.")
+        return {}
     claim_root(root, {"task": cfg.task, "preset": cfg.preset})
     start = time.perf_counter()
     out = root / RESULTS_DIR

@@ -348,6 +348,15 @@ def test_smoke_study_runs_end_to_end_then_resumes_without_rerunning(tmp_path: Pa
     assert other.returncode == 2 and "holds the study" in other.stderr
     assert sorted((p, p.stat().st_mtime_ns) for p in out.rglob("*")) == before, "the folder is left untouched"
 
+    # A dry run says what adding a second training seed would run, and runs nothing.
+    dry = pipeline(
+        "--task=push", "--preset=smoke", f"--output_dir={out}", "--train.extra_seeds=[7]", "--dry_run=true"
+    )
+    assert dry.returncode == 0, dry.stdout[-3000:] + dry.stderr[-3000:]
+    total = len(results["stage_wall_s"]) + 13
+    assert f"13 of {total} stages would run" in dry.stdout and dry.stdout.count(": new") == 13, dry.stdout
+    assert sorted((p, p.stat().st_mtime_ns) for p in out.rglob("*")) == before, "the folder is left untouched"
+
     # A second training seed added to the finished study trains and evaluates only its own policies.
     seeded = pipeline("--task=push", "--preset=smoke", f"--output_dir={out}", "--train.extra_seeds=[7]")
     assert seeded.returncode == 0, seeded.stdout[-3000:] + seeded.stderr[-3000:]

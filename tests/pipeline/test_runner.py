@@ -17,6 +17,7 @@ from lerobot_ivmc.pipeline.runner import (
     OutputFolderError,
     PipelineError,
     claim_root,
+    plan_stages,
     run_stages,
     study_lock,
 )
@@ -85,6 +86,25 @@ def test_finished_stages_are_skipped_and_a_changed_stage_reruns_with_its_success
     results = run_stages(root, stages, log=lambda _: None)
     assert statuses(results) == {"collect": "skipped", "train": "ran", "eval": "ran"}
     assert statuses(run_stages(root, stages, log=lambda _: None))["train"] == "skipped"
+
+
+def test_the_plan_says_what_a_run_would_do_and_runs_nothing(tmp_path: Path) -> None:
+    root = tmp_path / "study"
+    root.mkdir()
+    assert plan_stages(root, chain(root)) == [("collect", "new"), ("train", "new"), ("eval", "new")]
+    assert runs(root) == [] and not (root / "collect").exists()
+    run_stages(root, chain(root), log=lambda _: None)
+    runs(root)
+    assert plan_stages(root, chain(root)) == [("collect", "done"), ("train", "done"), ("eval", "done")]
+    # A changed train config: train and its successor would run again, as `run_stages` then does.
+    changed = chain(root, {"train": "b"})
+    assert plan_stages(root, changed) == [("collect", "done"), ("train", "redo"), ("eval", "redo")]
+    assert runs(root) == []
+    run_stages(root, changed, log=lambda _: None)
+    assert runs(root) == ["train", "eval"]
+    # A stage whose done file is gone (killed after its record) and that cannot resume is redone.
+    (root / "eval" / "done").unlink()
+    assert plan_stages(root, changed)[-1] == ("eval", "redo")
 
 
 def test_a_killed_stage_is_redone_from_a_clean_folder_and_finished_ones_are_kept(tmp_path: Path) -> None:
