@@ -57,11 +57,9 @@ def test_studies_begun_earlier_keep_their_stage_fingerprints(monkeypatch: pytest
     # The retry row, anchor's control row, reach's carry rows and the choice's validation runs joined the lite
     # preset after these studies began: a study resumed runs them, and redoes nothing else.
     assert {name: found[name] for name in LITE_PICK_PLACE} == LITE_PICK_PLACE
-    choices = {
-        f"choice_bvmc_fc1_{mode}"
-        for mode in ("rand", "init", "min_unc", "retry", "reach_carry", "reach_place")
-    }
-    rows = {f"eval_bvmc_fc1_{row}" for row in ("retry", "anchor_control", "reach_carry", "reach_place")}
+    carries = ("reach_carry", "reach_place", "reach_carry_frame", "reach_place_frame")
+    choices = {f"choice_bvmc_fc1_{mode}" for mode in ("rand", "init", "min_unc", "retry", *carries)}
+    rows = {f"eval_bvmc_fc1_{row}" for row in ("retry", "anchor_control", *carries)}
     assert found.keys() - LITE_PICK_PLACE.keys() == rows | choices
     train = next(stage for stage in build_stages(cfg) if stage.name == "train_bvmc_fc1")
     assert "trained_task" not in train.settings and train.settings["render_style"] == "fast"

@@ -154,12 +154,16 @@ def test_extra_training_seeds_add_stages_and_leave_the_study_s_own_untouched(tmp
         "eval_bvmc_fc1_retry_seed2000",
         "eval_bvmc_fc1_reach_carry_seed2000",
         "eval_bvmc_fc1_reach_place_seed2000",
+        "eval_bvmc_fc1_reach_carry_frame_seed2000",
+        "eval_bvmc_fc1_reach_place_frame_seed2000",
         "choice_bvmc_fc1_rand_seed2000",
         "choice_bvmc_fc1_init_seed2000",
         "choice_bvmc_fc1_min_unc_seed2000",
         "choice_bvmc_fc1_retry_seed2000",
         "choice_bvmc_fc1_reach_carry_seed2000",
         "choice_bvmc_fc1_reach_place_seed2000",
+        "choice_bvmc_fc1_reach_carry_frame_seed2000",
+        "choice_bvmc_fc1_reach_place_frame_seed2000",
         "detect_fc1_seed2000",
     ]
     # An extra seed's policies are checked and reported, never stop the study.
