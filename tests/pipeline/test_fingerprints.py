@@ -144,15 +144,16 @@ def test_episode_streams_redo_the_bvmc_rollouts_only(monkeypatch: pytest.MonkeyP
 @pytest.mark.parametrize(
     ("settings", "changed_default", "rows"),
     [
-        ("ReachSettings", {"grasp_tries": 5}, ["reach"]),
+        ("ReachSettings", {"grasp_tries": 5}, ["reach", "reach_carry_frame", "reach_place_frame"]),
         ("RetrySettings", {"steps": 30}, ["retry"]),
     ],
 )
 def test_a_changed_default_of_a_generic_strategy_redoes_its_rows_only(
     settings: str, changed_default: dict, rows: list[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """reach's and retry's defaults are chosen on validation scenes too: a changed one redoes its rows
-    only (its test row and its validation run for the row "chosen")."""
+    """reach's and retry's defaults are chosen on validation scenes too: a changed one redoes the rows of
+    its mode only (reach's carry rows too; each its test row and its validation run for the row
+    "chosen")."""
     cfg = parse_config(["--task=pick-place-v3", "--preset=metaworld", "--output_dir=/studies/pp"])
     classes = {"ReachSettings": ReachSettings, "RetrySettings": RetrySettings}
 

@@ -78,12 +78,13 @@ def test_the_metaworld_smoke_study_runs_end_to_end(tmp_path: Path) -> None:
         "min_unc",
         "retry",
         "reach",
+        "reach_carry_frame",
         "chosen",
     ]
     assert all(list(row["subtasks"]) == ["success"] for row in results["rows"])
     # The row "chosen" is the test row of the candidate that rescued most on validation scenes.
     chosen = results["rows"][-1]
-    assert list(chosen["choice"]["validation"]) == ["init", "retry"]
+    assert list(chosen["choice"]["validation"]) == ["init", "retry", "reach_carry_frame"]
     source = next(row for row in results["rows"] if row["method"] == chosen["choice"]["chosen_mode"])
     assert chosen["subtasks"] == source["subtasks"] and chosen["rescue"] == source["rescue"]
     assert (out / "choice" / "fc1" / "retry" / "eval_info.json").exists()
