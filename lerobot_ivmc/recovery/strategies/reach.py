@@ -5,7 +5,9 @@ memory (the object may have moved since the policy last saw it right), move abov
 then believes the object, descend and close on it (`grasp`), trying points around it while the fingers
 close on nothing; then hand back to the policy with a fresh memory. With `carry`, a grasp that holds (or
 a hand that holds the object when the trigger fires) is followed by a carry to where the policy believed
-the goal on its least uncertain steps (the goal head, learned from where the object ends in the demos)."""
+the goal on its least uncertain steps (the goal head, learned from where the object ends in the demos).
+`object` and `goal` say which head the beliefs come from: the memory's, or the frame position head's
+reading of each frame alone."""
 
 from __future__ import annotations
 
