@@ -27,7 +27,8 @@ def test_each_candidate_runs_on_the_threshold_s_validation_scenes_with_its_check
     cfg = parse_config(["--task=door-open-v3", "--preset=metaworld", f"--output_dir={tmp_path}"])
     stages = {stage.name: stage for stage in build_stages(cfg)}
     choices = [name for name in stages if name.startswith("choice_")]
-    assert choices == [f"choice_bvmc_fc1_{m}" for m in ("rand", "init", "min_unc", "retry", "reach")]
+    candidates = ("rand", "init", "min_unc", "retry", "reach", "reach_carry_frame", "reach_place_frame")
+    assert choices == [f"choice_bvmc_fc1_{m}" for m in candidates]
     threshold = stages["threshold_fc1"]
 
     def scenes(argv: list[str]) -> list[str]:
