@@ -106,6 +106,22 @@ class RootLock:
                 self.root.rmdir()  # only if this run left it empty
 
 
+def lock_holder(root: Path, lock_file: str) -> str | None:
+    """Who holds the lock of `root` now (pid, host, start and command), or None if nobody does. Reads only:
+    a missing lock file is not created, and a free lock is let go at once."""
+    try:
+        fd = os.open(Path(root) / lock_file, os.O_RDONLY)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return _describe_holder(Path(root) / lock_file)
+    finally:
+        os.close(fd)  # (closing lets a lock taken here go)
+    return None
+
+
 def _same_file(fd: int, path: Path) -> bool:
     try:
         on_disk = os.stat(path)

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Protocol
 
 from lerobot_ivmc.atomic_files import write_json_atomic
-from lerobot_ivmc.datasets.root_lock import RootLock
+from lerobot_ivmc.datasets.root_lock import RootLock, lock_holder
 from lerobot_ivmc.pipeline import stage_process
 from lerobot_ivmc.pipeline.stages import Stage, console_script, find_stage
 
@@ -126,6 +126,11 @@ def claim_root(root: Path, identity: dict) -> None:
         write_json_atomic(root / MANIFEST_FILE, identity)
 
 
+def study_holder(root: Path) -> str | None:
+    """The pipeline running in `root` now (pid, host, start and command), or None."""
+    return lock_holder(root, LOCK_FILE)
+
+
 def study_lock(root: Path) -> RootLock:
     """An exclusive lock on the study folder while a pipeline runs in it (the kernel releases it if the
     process dies, so a killed run never leaves it locked); a second run is refused, naming the first."""
@@ -148,7 +153,8 @@ def fingerprint(stage: Stage, upstream: dict[str, str]) -> str:
 def plan_stages(root: Path, stages: list[Stage]) -> list[tuple[str, str]]:
     """What `run_stages` would do with each stage, in order: "done" (skipped), "new" (never run), "resume"
     (killed, continued where it can be), "redo" (its settings or an upstream stage changed since it ran, or
-    it was killed and cannot resume)."""
+    it was killed and cannot resume); "running" for the stage a pipeline running in `root` now runs."""
+    running_now = study_holder(root) is not None
     fingerprints: dict[str, str] = {}
     plan = []
     for stage in stages:
@@ -161,6 +167,8 @@ def plan_stages(root: Path, stages: list[Stage]) -> list[tuple[str, str]]:
             state = "redo"
         elif record.get("status") == "done" and stage.done_file.exists():
             state = "done"
+        elif record.get("status") == "running" and running_now:
+            state = "running"
         else:
             state = "resume" if stage.output.exists() and stage.can_resume() else "redo"
         plan.append((stage.name, state))

@@ -24,6 +24,7 @@ from lerobot_ivmc.pipeline.runner import (
     claim_root,
     plan_stages,
     run_stages,
+    study_holder,
     study_lock,
 )
 from lerobot_ivmc.pipeline.stages import CUDA, Stage, build_stages
@@ -132,6 +133,8 @@ def run_pipeline(cfg: PipelineConfig, log=print) -> dict:
             log(f"[{index}/{len(plan)}] {name}: {state}")
         to_run = sum(state != "done" for _, state in plan)
         log(f"{to_run} of {len(plan)} stages would run in {root}; nothing was run.")
+        if holder := study_holder(root):
+            log(f"A pipeline runs there now ({holder}): a second one would be refused until it ends.")
         return {}
     claim_root(root, {"task": cfg.task, "preset": cfg.preset})
     start = time.perf_counter()

@@ -105,6 +105,13 @@ def test_the_plan_says_what_a_run_would_do_and_runs_nothing(tmp_path: Path) -> N
     # A stage whose done file is gone (killed after its record) and that cannot resume is redone.
     (root / "eval" / "done").unlink()
     assert plan_stages(root, changed)[-1] == ("eval", "redo")
+    # While a pipeline holds the study, the stage its record says is running is that run's.
+    record = root / STAGES_DIR / "eval.json"
+    record.write_text(json.dumps({**json.loads(record.read_text()), "status": "running"}))
+    assert plan_stages(root, changed)[-1] == ("eval", "redo")  # nobody runs it: a killed run
+    with study_lock(root):
+        assert plan_stages(root, changed)[-1] == ("eval", "running")
+    assert plan_stages(root, changed)[-1] == ("eval", "redo")
 
 
 def test_a_killed_stage_is_redone_from_a_clean_folder_and_finished_ones_are_kept(tmp_path: Path) -> None:
