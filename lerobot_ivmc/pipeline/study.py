@@ -128,7 +128,12 @@ def run_pipeline(cfg: PipelineConfig, log=print) -> dict:
     root = cfg.root
     if cfg.dry_run:
         check_root(root, {"task": cfg.task, "preset": cfg.preset})
-        plan = plan_stages(root, build_stages(with_train_device(cfg, LocalExecutor())))
+        executor = make_executor(cfg, log)  # (on Ray, where the trainings would run decides their device)
+        try:
+            plan = plan_stages(root, build_stages(with_train_device(cfg, executor)))
+        finally:
+            if hasattr(executor, "close"):
+                executor.close()
         for index, (name, state) in enumerate(plan, start=1):
             log(f"[{index}/{len(plan)}] {name}: {state}")
         to_run = sum(state != "done" for _, state in plan)
