@@ -69,6 +69,20 @@ class RecoveryStrategy:
         return None
 
     @staticmethod
+    def check_frame_readings(policy: BVMCPolicy, mode: str, settings: object) -> None:
+        """Refuse `--recovery.<mode>.object=frame` / `goal=frame` (the fields of `settings`) for a policy
+        trained without the frame position head, in one line."""
+        on_frame = [n for n in ("object", "goal") if getattr(settings, n, None) == "frame"]
+        if on_frame and not getattr(policy.config, "frame_position_head", False):
+            flags = " and ".join(f"--recovery.{mode}.{name}=frame" for name in on_frame)
+            fix = " ".join(f"--recovery.{mode}.{name}=memory" for name in on_frame)
+            raise ValueError(
+                f"{flags} {'read' if len(on_frame) > 1 else 'reads'} the policy's frame position head: it "
+                "needs a policy trained with "
+                f"--policy.frame_position_head=true (the lite preset's); pass {fix} for this one."
+            )
+
+    @staticmethod
     def holding(ctx: IntrospectiveController, row: int, fingers: np.ndarray) -> bool:
         """Whether rollout `row` holds the object: it last commanded "close" and the fingers rest apart
         (`fingers`: (B, F), a strategy that `reads_fingers`)."""

@@ -52,15 +52,7 @@ class AnchorRecovery(RecoveryStrategy):
                 "--recovery.mode=anchor reads the goal the policy believes: it needs a policy trained with "
                 "--policy.goal_head=true (the lite preset's); use another --recovery.mode for this one."
             )
-        on_frame = [n for n in ("object", "goal") if getattr(self.settings.anchor, n) == "frame"]
-        if on_frame and not getattr(policy.config, "frame_position_head", False):
-            settings = " and ".join(f"--recovery.anchor.{name}=frame" for name in on_frame)
-            fix = " ".join(f"--recovery.anchor.{name}=memory" for name in on_frame)
-            raise ValueError(
-                f"{settings} {'read' if len(on_frame) > 1 else 'reads'} the policy's frame position head: it "
-                "needs a policy trained with "
-                f"--policy.frame_position_head=true (the lite preset's); pass {fix} for this one."
-            )
+        self.check_frame_readings(policy, "anchor", self.settings.anchor)
         if state_stats is None:
             raise ValueError(
                 "--recovery.mode=anchor needs the statistics of observation.state (state_stats)."

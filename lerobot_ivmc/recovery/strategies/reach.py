@@ -68,14 +68,7 @@ class ReachRecovery(RecoveryStrategy):
                 "--recovery.mode=reach reads the policy's object head: it needs a policy trained on a "
                 "dataset with observation.environment_state (auxiliary heads); use --recovery.mode=retry."
             )
-        reach = self.settings.reach
-        for name in ("object", "goal"):
-            if getattr(reach, name) == "frame" and not getattr(policy.config, "frame_position_head", False):
-                raise ValueError(
-                    f"--recovery.reach.{name}=frame reads the policy's frame position head: it needs a "
-                    "policy trained with --policy.frame_position_head=true; pass "
-                    f"--recovery.reach.{name}=memory."
-                )
+        self.check_frame_readings(policy, "reach", self.settings.reach)
         if self.settings.reach.carry and not getattr(policy.config, "goal_head", False):
             raise ValueError(
                 "--recovery.reach.carry=true carries the object to the goal the policy believes: it needs a "
