@@ -6,8 +6,9 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from dataclasses import replace
 
 import draccus
@@ -87,6 +88,17 @@ def make_executor(cfg: PipelineConfig, log=print) -> Executor:
     return LocalExecutor()
 
 
+@contextmanager
+def open_executor(cfg: PipelineConfig, log=print) -> Iterator[Executor]:
+    """`make_executor`'s executor, closed (a Ray one let go) when the block ends."""
+    executor = make_executor(cfg, log)
+    try:
+        yield executor
+    finally:
+        if hasattr(executor, "close"):
+            executor.close()
+
+
 def run_studies(cfgs: list[PipelineConfig], run_study: Callable[[PipelineConfig, Callable], dict]) -> None:
     """Run several studies (`split_tasks`): one after the other on the local executor; on Ray side by side,
     one driver thread each on one cluster, their log lines prefixed with the task. Raises the first
@@ -128,12 +140,8 @@ def run_pipeline(cfg: PipelineConfig, log=print) -> dict:
     root = cfg.root
     if cfg.dry_run:
         check_root(root, {"task": cfg.task, "preset": cfg.preset})
-        executor = make_executor(cfg, log)  # (on Ray, where the trainings would run decides their device)
-        try:
+        with open_executor(cfg, log) as executor:  # (on Ray, where trainings would run decides their device)
             plan = plan_stages(root, build_stages(with_train_device(cfg, executor)))
-        finally:
-            if hasattr(executor, "close"):
-                executor.close()
         for index, (name, state) in enumerate(plan, start=1):
             log(f"[{index}/{len(plan)}] {name}: {state}")
         to_run = sum(state != "done" for _, state in plan)
@@ -144,21 +152,16 @@ def run_pipeline(cfg: PipelineConfig, log=print) -> dict:
     claim_root(root, {"task": cfg.task, "preset": cfg.preset})
     start = time.perf_counter()
     out = root / RESULTS_DIR
-    with study_lock(root):
-        executor = make_executor(cfg, log)
-        try:
-            cfg = with_train_device(cfg, executor)
-            stages = build_stages(cfg)
+    with study_lock(root), open_executor(cfg, log) as executor:
+        cfg = with_train_device(cfg, executor)
+        stages = build_stages(cfg)
 
-            def write_when_results_grow(timings: list[StageResult]) -> None:
-                if adds_results(cfg, timings):
-                    write_results(cfg, stages, timings)
-                    log(f"Results so far in {out}")
+        def write_when_results_grow(timings: list[StageResult]) -> None:
+            if adds_results(cfg, timings):
+                write_results(cfg, stages, timings)
+                log(f"Results so far in {out}")
 
-            timings = run_stages(root, stages, log, on_stage_end=write_when_results_grow, executor=executor)
-        finally:
-            if hasattr(executor, "close"):
-                executor.close()
+        timings = run_stages(root, stages, log, on_stage_end=write_when_results_grow, executor=executor)
     log_stage_times(cfg, stages, timings, time.perf_counter() - start, log)
     log(f"\n{(out / 'table.md').read_text()}\nResults in {out}")
     return json.loads((out / f"{cfg.task}.json").read_text())
