@@ -52,6 +52,10 @@ class Embodiment:
         gap = float(np.sum(fingers))
         return self.held_gap[0] < gap < self.held_gap[1]
 
+    def closed_on_nothing(self, fingers: np.ndarray) -> np.ndarray:
+        """(B,) whether fingers read as `fingers` (B, F) have closed past anything they could hold."""
+        return np.asarray(fingers, dtype=np.float64).sum(axis=-1) <= self.held_gap[0]
+
     def move_towards(self, grip: np.ndarray, target: np.ndarray, gripper: float = HOLD) -> np.ndarray:
         """A (4,) action that moves the grip point as far toward `target` (metres) as one step allows."""
         delta = np.clip(self.approach_gain * (target - grip) / self.metres_per_action_unit, -1.0, 1.0)

@@ -4,7 +4,7 @@ inside `IntrospectiveController` (Algorithm 1), and what the command writes: `ev
 `subtasks` and `aggregated_subtasks`, the uncertainty traces, Fig. 3 and the recovery videos."""
 
 import logging
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from pprint import pformat
 
@@ -44,7 +44,7 @@ from lerobot_ivmc.evaluation.success_by_uncertainty import (
 from lerobot_ivmc.evaluation.traces import TRACES_FILE, episode_traces, save_traces
 from lerobot_ivmc.recovery.config import RecoveryConfig
 from lerobot_ivmc.recovery.controller import IntrospectiveController
-from lerobot_ivmc.recovery.threshold import ThresholdRecord, check_finite, resolve_threshold
+from lerobot_ivmc.recovery.threshold import ThresholdRecord, check_finite, resolve_deadline, resolve_threshold
 from lerobot_ivmc.recovery.time_baseline import baseline_digest
 
 logger = logging.getLogger(__name__)
@@ -135,7 +135,7 @@ def evaluate(cfg: IvmcEvalConfig, ignore_stored_threshold: bool = False) -> dict
 def run_evaluation(cfg: IvmcEvalConfig, output_dir: Path, ignore_stored_threshold: bool) -> dict:
     """`evaluate`'s run, in the output folder it holds."""
     is_bayesian = cfg.policy.type == "bvmc"
-    threshold, window, source, baseline = None, 0, "none", None
+    threshold, window, source, baseline, deadline_source = None, 0, "none", None, "none"
     if is_bayesian:
         path = cfg.policy.pretrained_path
         record = ThresholdRecord.load(path) if path and not ignore_stored_threshold else None
@@ -146,6 +146,8 @@ def run_evaluation(cfg: IvmcEvalConfig, output_dir: Path, ignore_stored_threshol
             source = (
                 f"checkpoint ({record.method}{'' if record.alpha is None else f', alpha={record.alpha}'})"
             )
+        deadline, deadline_source = resolve_deadline(cfg.recovery.deadline, record)
+        cfg.recovery = replace(cfg.recovery, deadline=deadline)
         # A time-conditioned record's baseline holds for an overriding C too: C is on its scale.
         if record is not None and record.baseline is not None:
             baseline = np.asarray(record.baseline)
@@ -211,6 +213,8 @@ def run_evaluation(cfg: IvmcEvalConfig, output_dir: Path, ignore_stored_threshol
         add_recovery_results(info, episodes, cfg, threshold, window, source, output_dir)
         if baseline is not None:
             info["recovery"]["baseline_digest"] = baseline_digest(baseline)
+        if deadline_source == "checkpoint":
+            info["recovery"]["deadline_source"] = "checkpoint (--recovery.deadline=auto)"
         if cfg.recovery.mode == "min_unc":
             info["recovery"]["candidate_noise"] = controller.candidate_noise
         if video_store is not None:

@@ -90,8 +90,9 @@ def pick(cfg: ThresholdPipelineConfig) -> ThresholdRecord:
     scores = [e["max_uncertainty"] for e in episodes]
     successes = [bool(e["success"]) for e in episodes]
     baseline, quantile, separation = None, None, None
+    traces = load_traces(Path(cfg.output_dir) / TRACES_FILE)
     if cfg.score != "window_sum":
-        sums = [trace["window_sum"] for trace in load_traces(Path(cfg.output_dir) / TRACES_FILE)]
+        sums = [trace["window_sum"] for trace in traces]
         scores, baseline, quantile, separation = choose_score(sums, scores, successes, cfg)
     if cfg.method == "conformal":
         threshold = conformal_threshold([u for u, ok in zip(scores, successes, strict=True) if ok], cfg.alpha)
@@ -109,6 +110,7 @@ def pick(cfg: ThresholdPipelineConfig) -> ThresholdRecord:
         baseline=None if baseline is None else baseline.tolist(),
         baseline_quantile=quantile,
         score_auroc=separation,
+        deadline=success_deadline([len(t["uncertainty"]) for t in traces], successes),
         episodes=[
             {"seed": e["seed"], "u": u, "success": ok}
             for e, u, ok in zip(episodes, scores, successes, strict=True)
@@ -117,6 +119,13 @@ def pick(cfg: ThresholdPipelineConfig) -> ThresholdRecord:
     shutil.copytree(source, checkpoint)
     record.save(checkpoint)
     return record
+
+
+def success_deadline(lengths: Sequence[int], successes: Sequence[bool]) -> int | None:
+    """The deadline `--recovery.deadline=auto` fires at: the longest successful episode's steps + 1 (a rollout
+    that runs longer has outlived every success); None without a success."""
+    steps = [n for n, ok in zip(lengths, successes, strict=True) if ok]
+    return max(steps) + 1 if steps else None
 
 
 def choose_score(

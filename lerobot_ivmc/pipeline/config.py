@@ -44,10 +44,31 @@ VARIANT_ROWS = {
     "reach_carry_frame": ("reach", (CARRY, *ON_FRAMES)),
     "reach_place_frame": ("reach", (CARRY, RELEASE, *ON_FRAMES)),
 }
-ROW_FLAGS = {**CONTROL_ROWS, **VARIANT_ROWS}
+# Triggers beyond the uncertainty score (docs/recovery.md), added to a row that knows no task as
+# `<row>_<trigger>`: the deadline the threshold record holds, a missed grasp (the fingers closed on nothing
+# for GRASP_MISS_STEPS steps), and `_only` where the score's threshold is out of reach, for a policy whose
+# uncertainty does not tell its failures. Chosen on validation scenes like the modes.
+GRASP_MISS_STEPS = 30
+DEADLINE, GRASP_MISS = "--recovery.deadline=auto", f"--recovery.grasp_miss={GRASP_MISS_STEPS}"
+SCORE_OUT_OF_REACH = "--recovery.threshold=1e9"
+TRIGGER_VARIANTS = {
+    "deadline": (DEADLINE,),
+    "grasp_miss": (GRASP_MISS,),
+    "deadline_only": (SCORE_OUT_OF_REACH, DEADLINE),
+    "grasp_miss_only": (SCORE_OUT_OF_REACH, GRASP_MISS),
+    "grasp_miss_deadline_only": (SCORE_OUT_OF_REACH, GRASP_MISS, DEADLINE),
+}
+TRIGGER_ROWS = {
+    f"{row}_{trigger}": (mode, (*own, *flags))
+    for row, (mode, own) in {**{m: (m, ()) for m in TASK_FREE_MODES}, **VARIANT_ROWS}.items()
+    for trigger, flags in TRIGGER_VARIANTS.items()
+}
+ROW_FLAGS = {**CONTROL_ROWS, **VARIANT_ROWS, **TRIGGER_ROWS}
 STUDY_ROWS = (*RECOVERY_MODES, *ROW_FLAGS)
-# The rows `--recovery_choice` may choose among: the modes that know no task and their variants.
-TASK_FREE_ROWS = (*TASK_FREE_MODES, *VARIANT_ROWS)
+# The rows `--recovery_choice` may choose among: the modes that know no task, their variants, and "none"
+# (no recovery: chosen where every mode loses on validation scenes).
+TASK_FREE_ROWS = (*TASK_FREE_MODES, *VARIANT_ROWS, *TRIGGER_ROWS)
+CHOICE_ROWS = ("none", *TASK_FREE_ROWS)
 POLICY_TYPES = ("vmc", "bvmc")
 
 
@@ -260,7 +281,10 @@ class PipelineConfig:
         recovery_choice: modes of `recovery_modes` that know no task, among which each chain chooses on
             validation scenes: each runs on the threshold's validation scenes, and the one that rescues
             most of them net of those it loses (ties: fewer lost, then the listed order) gives the row
-            "chosen" its test episodes (`pipeline/recovery_choice.py`). Empty: no choice.
+            "chosen" its test episodes (`pipeline/recovery_choice.py`). "none" may be listed: no recovery,
+            0 rescued and 0 lost, chosen where every mode loses more than it rescues. A row with a trigger
+            beyond the score (`<row>_deadline`, `_grasp_miss`, `_deadline_only`, `_grasp_miss_only`,
+            `_grasp_miss_deadline_only`: TRIGGER_VARIANTS) is a candidate like a mode. Empty: no choice.
         fig3: the Fig. 3 evaluation (BVMC without recovery, many test episodes) and detection metrics.
         regime: the data-budget rule (off unless `--regime.demo_budgets` or `--regime.train_steps` lists
             budgets).
@@ -338,7 +362,11 @@ class PipelineConfig:
             )
         bad_modes = [m for m in self.recovery_modes if m not in STUDY_ROWS]
         if bad_modes or not self.recovery_modes:
-            raise ValueError(f"--recovery_modes must be taken from {STUDY_ROWS}, got {self.recovery_modes}.")
+            raise ValueError(
+                f"--recovery_modes must be taken from {(*RECOVERY_MODES, *CONTROL_ROWS, *VARIANT_ROWS)} or a "
+                f"row with a trigger (`<row>_<trigger>`, triggers {tuple(TRIGGER_VARIANTS)}); got "
+                f"{self.recovery_modes}{f', unknown {bad_modes}' if bad_modes else ''}."
+            )
         self.validate_recovery_choice()
         if self.anchor_rows and self.train.policy.goal_head is False:
             raise ValueError(
@@ -390,10 +418,16 @@ class PipelineConfig:
         choice = self.recovery_choice
         if not choice:
             return
-        if any(m not in TASK_FREE_ROWS for m in choice) or len(set(choice)) != len(choice):
+        if any(m not in CHOICE_ROWS for m in choice) or len(set(choice)) != len(choice):
+            unknown = [m for m in choice if m not in CHOICE_ROWS]
             raise ValueError(
-                f"--recovery_choice chooses among distinct modes that know no task, {TASK_FREE_ROWS}; "
-                f"got {choice}."
+                "--recovery_choice chooses among distinct modes that know no task (none, rand, init, "
+                f"min_unc, retry, reach, their variants and triggers: lerobot_ivmc/pipeline/config.py); got "
+                f"{choice}{f', unknown {unknown}' if unknown else ''}."
+            )
+        if choice == ["none"]:
+            raise ValueError(
+                "--recovery_choice=[none] has nothing to choose: list the modes to choose among."
             )
         missing = [m for m in [*choice, "none"] if m not in self.recovery_modes]
         if missing:

@@ -2,7 +2,8 @@
 on every task (retry on the Fetch tasks, init on door-open-v3), so each chain chooses among them as it
 chooses its threshold, on validation scenes only, and the row "chosen" reports the chosen mode's test
 episodes. The rule: most validation failures rescued net of the successes lost; ties go to fewer lost, then
-to the mode listed first."""
+to the mode listed first. "none" among the candidates (no recovery, 0 / 0) keeps recovery off where every
+mode loses more than it rescues."""
 
 from __future__ import annotations
 
@@ -32,6 +33,22 @@ def chain_choice(cfg: PipelineConfig, stages: list[Stage], fc: int, train_seed: 
     success = list(plain["aggregated_subtasks"])[-1]
     validation = {}
     for mode in cfg.recovery_choice:
+        if mode == "none":
+            validation[mode] = no_recovery_record(plain, success)
+            continue
         run = load_run(stage_output(stages, choice_stage_name(fc, mode, train_seed)))
         validation[mode] = rescue_record(plain, run, success)
     return {"chosen_mode": choose_mode(validation), "validation": validation}
+
+
+def no_recovery_record(plain: dict, success: str) -> dict:
+    """The rescue record of "none" on the run without recovery `plain`: nothing rescued, nothing lost."""
+    failures = sum(not e["subtasks"][success] for e in plain["per_episode"])
+    return {
+        "failures": failures,
+        "flagged": None,
+        "rescued": 0,
+        "lost": 0,
+        "rescue_rate": 0.0 if failures else None,
+        "mcnemar_exact_p": 1.0,
+    }

@@ -16,7 +16,7 @@ from lerobot_ivmc.evaluation.perception_check import DRIVERS as PERCEPTION_DRIVE
 from lerobot_ivmc.evaluation.success_by_uncertainty import most_negative_rho
 from lerobot_ivmc.pipeline.config import PipelineConfig
 from lerobot_ivmc.pipeline.paper_table import PAPER_TABLE
-from lerobot_ivmc.pipeline.recovery_choice import CHOSEN, chain_choice
+from lerobot_ivmc.pipeline.recovery_choice import CHOSEN, chain_choice, no_recovery_record
 from lerobot_ivmc.pipeline.runner import StageResult
 from lerobot_ivmc.pipeline.seed_pool import WITHOUT_RECOVERY, spread_over_seeds, study_setup
 from lerobot_ivmc.pipeline.stage_names import (
@@ -81,14 +81,27 @@ def table_rows(cfg: PipelineConfig, stages: list[Stage], fcs: list[int]) -> list
             }
             rows.append(row)
         if cfg.recovery_choice:
-            rows.append(chosen_row(rows, chain_choice(cfg, stages, fc, None), fc))
+            rows.append(chosen_row(rows, chain_choice(cfg, stages, fc, None), fc, infos["none"]))
     return rows
 
 
-def chosen_row(rows: list[dict], choice: dict, fc: int) -> dict:
-    """The row "chosen": the test row of the mode `choice` chose on validation scenes, with the choice."""
+def chosen_row(rows: list[dict], choice: dict, fc: int, bvmc: dict) -> dict:
+    """The row "chosen": the test row of the mode `choice` chose on validation scenes, with the choice;
+    where it chose "none", BVMC's own test episodes `bvmc` (an eval info), nothing rescued or lost."""
     mode = choice["chosen_mode"]
-    source = next(r for r in rows if r["num_fc_layers"] == fc and r.get("method") == mode)
+    if mode == "none":
+        success = list(bvmc["aggregated_subtasks"])[-1]
+        base = next(r for r in rows if r["num_fc_layers"] == fc)
+        source = {k: base[k] for k in ("task", "num_fc_layers", "train_seed")} | {
+            "model": "BVMC",
+            "subtasks": subtask_rates(bvmc),
+            "paired": {},
+            "recoveries": 0,
+            "episodes_with_recovery": 0,
+            "rescue": no_recovery_record(bvmc, success),
+        }
+    else:
+        source = next(r for r in rows if r["num_fc_layers"] == fc and r.get("method") == mode)
     label = f"{METHOD_LABELS[CHOSEN]}: {mode}"
     return {**source, "method": CHOSEN, "label": label, "paper": {}, "choice": choice}
 
@@ -140,7 +153,8 @@ def training_seed_rows(
             for train_seed in seeds:
                 extra = None if train_seed == cfg.train.seed else train_seed
                 own = [r for r in recovery_rows if r["num_fc_layers"] == fc and r["train_seed"] == train_seed]
-                recovery_rows.append(chosen_row(own, chain_choice(cfg, stages, fc, extra), fc))
+                bvmc = load_eval_info(stage_output(stages, eval_row_stage(fc, "none", extra)))
+                recovery_rows.append(chosen_row(own, chain_choice(cfg, stages, fc, extra), fc, bvmc))
     return rows, recovery_rows
 
 

@@ -89,7 +89,10 @@ def spread_over_seeds(rows: list[dict], recovery_rows: list[dict]) -> tuple[list
 def summed_rescue(records: list[dict]) -> dict:
     """Rescue records (each with failures, flagged, rescued, lost) summed, with the rescue rate net of the
     lost and the exact test of rescued against lost on the sums (`exact_p`)."""
-    total = {k: sum(r[k] for r in records) for k in ("failures", "flagged", "rescued", "lost")}
+    total = {k: sum(r[k] for r in records) for k in ("failures", "rescued", "lost")}
+    # Flagged counts only where every seed's has one (none where a deadline, a grasp miss or no recovery ran).
+    flagged = [r["flagged"] for r in records]
+    total["flagged"] = None if None in flagged else sum(flagged)
     return {
         **total,
         "rescue_rate": (total["rescued"] - total["lost"]) / total["failures"] if total["failures"] else None,

@@ -422,6 +422,7 @@ def choice_stages(
             task=cfg.task,
         )
         for mode in cfg.recovery_choice
+        if mode != "none"  # no recovery: the threshold's own validation run
     ]
 
 

@@ -23,6 +23,8 @@ RECOVERY_MODES = ("none", "rand", "init", "min_unc", "anchor", "retry", "reach")
 # The recovery modes that use no task-specific code: only the robot's embodiment, the policy and its heads.
 TASK_FREE_MODES = ("rand", "init", "min_unc", "retry", "reach")
 RANDOM_STREAMS = ("batch", "episode")
+# `--recovery.deadline=auto`: the deadline the checkpoint's threshold record holds.
+AUTO = "auto"
 BACKOFF_FROM = ("trigger", "resume")
 
 
@@ -51,7 +53,12 @@ class RecoveryConfig:
         deadline: a recovery also fires when a rollout has acted this many steps since its memory was last
             fresh (the trigger's clock: the episode's step before any recovery) without succeeding, whatever
             its uncertainty: a timeout, set a little beyond the longest successful validation episode
-            (`lerobot-ivmc-threshold` prints it). 0: no deadline (the paper's trigger).
+            (`lerobot-ivmc-threshold` prints it). "auto": the checkpoint's threshold record's (the longest
+            successful validation episode + 1). 0: no deadline (the paper's trigger).
+        grasp_miss: a recovery also fires when the policy has kept the gripper commanded closed this many
+            consecutive steps while the fingers read closed on nothing (the embodiment's held gap): a missed
+            or dropped grasp, seen by proprioception however sure the policy is (`recovery/grasp_miss.py`).
+            0: off.
         reset_window_after_recovery: clear the window sum when a recovery starts and add no uncertainty
             during it, so the next trigger is decided on steps after the recovery only. The paper is
             silent; without it the high uncertainties that fired the trigger keep the sum above C.
@@ -92,7 +99,8 @@ class RecoveryConfig:
     initial_interval: int = 20
     backoff_from: str = "trigger"
     max_recoveries: int = 0
-    deadline: int = 0
+    deadline: int | str = 0
+    grasp_miss: int = 0
     reset_window_after_recovery: bool = True
     recovery_steps: int = 25
     backtrack_horizon: int = 20
@@ -128,12 +136,18 @@ class RecoveryConfig:
             )
         if self.window is not None and self.window < 1:
             raise ValueError(f"--recovery.window must be >= 1 step, got {self.window}.")
-        if self.deadline and self.mode == "none":
+        if isinstance(self.deadline, str) and self.deadline != AUTO:
             raise ValueError(
-                "--recovery.deadline fires a recovery; with --recovery.mode=none there is none to fire: drop "
-                "it or choose a mode."
+                f"--recovery.deadline must be a number of steps or {AUTO!r}, got {self.deadline!r}."
             )
-        for name in ("initial_interval", "max_videos", "max_recoveries", "deadline"):
+        for name in ("deadline", "grasp_miss"):
+            if getattr(self, name) and self.mode == "none":
+                raise ValueError(
+                    f"--recovery.{name} fires a recovery; with --recovery.mode=none there is none to fire: "
+                    "drop it or choose a mode."
+                )
+        numbers = ("initial_interval", "max_videos", "max_recoveries", "grasp_miss")
+        for name in (*numbers, *(("deadline",) if self.deadline != AUTO else ())):
             if getattr(self, name) < 0:
                 raise ValueError(f"--recovery.{name} must be >= 0, got {getattr(self, name)}.")
         for name in ("backtrack_horizon", "recovery_steps"):

@@ -21,7 +21,8 @@ from torch import Tensor
 from lerobot_ivmc.envs.embodiment import Embodiment
 from lerobot_ivmc.envs.task_traits import TaskTraits
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy
-from lerobot_ivmc.recovery.config import RecoveryConfig
+from lerobot_ivmc.recovery.config import AUTO, RecoveryConfig
+from lerobot_ivmc.recovery.grasp_miss import GraspMissAlarm
 from lerobot_ivmc.recovery.manoeuvres import FifoEntry, Manoeuvre, MemoryChange
 from lerobot_ivmc.recovery.rollout_wrapper import BVMCRolloutWrapper
 from lerobot_ivmc.recovery.strategies import make_strategy
@@ -128,6 +129,13 @@ class IntrospectiveController(BVMCRolloutWrapper):
             raise ValueError(f"Recovery mode {recovery.mode!r} needs a threshold.")
         self.strategy = make_strategy(recovery)
         self.strategy.check(policy, state_stats)
+        if recovery.deadline == AUTO:
+            raise ValueError(
+                "Resolve --recovery.deadline=auto from the threshold record first (`resolve_deadline`)."
+            )
+        if recovery.grasp_miss and state_stats is None:
+            raise ValueError("--recovery.grasp_miss reads the fingers: the policy needs observation.state.")
+        self.reads_fingers = self.strategy.reads_fingers or recovery.grasp_miss > 0
         self.state_stats = state_stats
         self.recovery = recovery
         # Without recovery the trigger still keeps the window sums for the traces, but never fires.
@@ -177,6 +185,11 @@ class IntrospectiveController(BVMCRolloutWrapper):
             self.recovery.max_recoveries,
             self.baseline,
             self.recovery.deadline,
+        )
+        self.grasp_miss = (
+            GraspMissAlarm(batch_size, self.recovery.grasp_miss, self.embodiment)
+            if self.recovery.grasp_miss
+            else None
         )
         self.manoeuvres: list[Manoeuvre | None] = [None] * batch_size
         self.fifos = [deque(maxlen=self.recovery.backtrack_horizon) for _ in range(batch_size)]
@@ -249,9 +262,11 @@ class IntrospectiveController(BVMCRolloutWrapper):
         """The strategy's manoeuvre for rollout `row`, its FIFO cleared and the recovery event recorded."""
         manoeuvre, event_extra = self.strategy.begin(self, row, grip, fingers)
         self.fifos[row].clear()
-        self.traces[-1].events[row].append(
-            {"step": self.step, "mode": self.recovery.mode, "window_sum": window_sum, **event_extra}
-        )
+        event = {"step": self.step, "mode": self.recovery.mode, "window_sum": window_sum, **event_extra}
+        if self.recovery.deadline or self.recovery.grasp_miss:  # more than one cause can fire
+            cause = self.trigger.causes[row]
+            event["cause"] = "grasp_miss" if cause == "alarm" else cause
+        self.traces[-1].events[row].append(event)
         return manoeuvre
 
     @torch.no_grad()
@@ -262,7 +277,7 @@ class IntrospectiveController(BVMCRolloutWrapper):
             self._start_batch(grip.shape[0], grip)
         for observer in self.observers:
             observer.observe(batch)
-        fingers = self.finger_joints(batch) if self.strategy.reads_fingers else None
+        fingers = self.finger_joints(batch) if self.reads_fingers else None
         self._advance_manoeuvres(grip, fingers)
         # The live memory, not a copy: `sample` replaces it with new tensors, and `memory_row` copies rows.
         memory_before = self.policy._memory if self.strategy.keeps_fifo else None
@@ -272,7 +287,12 @@ class IntrospectiveController(BVMCRolloutWrapper):
         if self.strategy.keeps_fifo:
             self._keep_fifo(memory_before, uncertainty, normal, grip)
         self.strategy.observe(self, prediction, uncertainty, normal)
-        fire = self.trigger.update(uncertainty, normal)
+        missed = (
+            None if self.grasp_miss is None else self.grasp_miss.update(fingers, self.last_gripper, normal)
+        )
+        fire = self.trigger.update(uncertainty, normal, missed)
+        if self.grasp_miss is not None:
+            self.grasp_miss.clear(np.flatnonzero(fire))
         window_sum = self.trigger.decision_sums
         actions = prediction.mean_action.clone()
         self.strategy.normal_actions(self, prediction, actions, normal)

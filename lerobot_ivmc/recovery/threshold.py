@@ -144,3 +144,23 @@ def resolve_threshold(
             "--recovery.threshold=<value>."
         )
     return None, window, "none"
+
+
+def resolve_deadline(setting: int | str, record: ThresholdRecord | None) -> tuple[int, str]:
+    """The deadline an evaluation uses (`--recovery.deadline`: steps, 0 for none, or "auto": the record's)
+    and where it came from: "flag", "checkpoint" or "none"."""
+    if setting != "auto":
+        return int(setting), "flag" if setting else "none"
+    if record is None or record.deadline is None:
+        why = (
+            "the checkpoint has no threshold record"
+            if record is None
+            else "its threshold record holds none (no successful validation episode, or picked before "
+            "records kept one)"
+        )
+        raise ValueError(
+            f"--recovery.deadline=auto reads the checkpoint's threshold record, but {why}: pick the "
+            "threshold with lerobot-ivmc-threshold and evaluate the checkpoint it writes, or pass "
+            "--recovery.deadline=<steps>."
+        )
+    return record.deadline, "checkpoint"

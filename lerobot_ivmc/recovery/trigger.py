@@ -12,8 +12,9 @@ class RecoveryTrigger:
 
     At every step each rollout in normal operation adds its uncertainty to a sliding window; a recovery
     fires when the window sum (over the baseline at this step, where one is given) exceeds C, or the
-    rollout's clock reaches the deadline where one is set, and more than T_recovery steps have passed since
-    the last recovery (or the episode's start). Each firing doubles that rollout's T_recovery.
+    rollout's clock reaches the deadline where one is set, or another alarm is raised for it (a missed grasp,
+    `recovery/grasp_miss.py`), and more than T_recovery steps have passed since the last recovery (or the
+    episode's start). Each firing doubles that rollout's T_recovery.
 
     Args:
         num_rollouts: B.
@@ -59,19 +60,24 @@ class RecoveryTrigger:
         self.fired = np.zeros(num_rollouts, dtype=np.int64)  # recoveries fired so far, per rollout
         self.baseline = None if baseline is None else np.asarray(baseline, dtype=np.float64)
         self.clock = np.zeros(num_rollouts, dtype=np.int64)
+        # Why each rollout fired at the last update: "score", else "deadline", else "alarm" ("" where none).
+        self.causes = np.full(num_rollouts, "", dtype=object)
 
     @property
     def window_sum(self) -> np.ndarray:
         """(B,) the current sliding-window sums."""
         return self.values.sum(axis=1)
 
-    def update(self, uncertainty: np.ndarray, active: np.ndarray) -> np.ndarray:
+    def update(
+        self, uncertainty: np.ndarray, active: np.ndarray, alarm: np.ndarray | None = None
+    ) -> np.ndarray:
         """Add this step's uncertainties and decide which rollouts recover now.
 
         Args:
             uncertainty: (B,) this step's uncertainty.
             active: (B,) bool, rollouts in normal operation (a rollout inside a recovery adds nothing and
                 cannot fire).
+            alarm: (B,) bool, other reasons to recover now (a missed grasp); None: none.
 
         Returns:
             (B,) bool: rollouts that start a recovery at this step.
@@ -84,13 +90,15 @@ class RecoveryTrigger:
         if self.baseline is not None:
             self.decision_sums = step_scores(self.decision_sums, self.clock, self.baseline, self.window)
         self.clock[rows] += 1
-        alarm = self.decision_sums > self.threshold
-        if self.deadline > 0:
-            alarm |= self.clock >= self.deadline
-        fire = active & alarm & (self.since_recovery > self.interval)
+        score = self.decision_sums > self.threshold
+        late = self.clock >= self.deadline if self.deadline > 0 else np.zeros_like(score)
+        other = np.zeros_like(score) if alarm is None else np.asarray(alarm, dtype=bool)
+        fire = active & (score | late | other) & (self.since_recovery > self.interval)
         if self.max_recoveries > 0:
             fire &= self.fired < self.max_recoveries
         fired = np.flatnonzero(fire)
+        self.causes[:] = ""
+        self.causes[fired] = np.where(score[fired], "score", np.where(late[fired], "deadline", "alarm"))
         self.fired[fired] += 1
         self.interval[fired] *= 2
         self.since_recovery[fired] = 0

@@ -40,8 +40,8 @@ def threshold_main(cfg: ThresholdPipelineConfig) -> ThresholdRecord:
     success_steps = [len(trace["uncertainty"]) for trace, episode in pairs if episode["success"]]
     if success_steps:
         print(
-            f"Successful {record.split} episodes ran {min(success_steps)} to {max(success_steps)} steps (a "
-            f"--recovery.deadline beyond {max(success_steps)} also recovers rollouts that run longer)."
+            f"Successful {record.split} episodes ran {min(success_steps)} to {max(success_steps)} steps: "
+            f"--recovery.deadline=auto also recovers rollouts that run {record.deadline} steps."
         )
     if all(e["success"] for e in record.episodes):
         print(

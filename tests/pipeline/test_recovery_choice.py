@@ -118,3 +118,91 @@ def test_each_seed_s_chosen_row_is_its_choice_s_test_row_and_pools_over_the_seed
     _, pooled = spread_over_seeds([], recovery_rows)
     pooled_chosen = next(p for p in pooled if p["method"] == "chosen")
     assert (pooled_chosen["failures"], pooled_chosen["rescued"], pooled_chosen["lost"]) == (8, 3, 0)
+
+
+def test_none_is_chosen_where_every_mode_loses_on_validation_and_reports_bvmc_s_own_test_row(
+    tmp_path: Path,
+) -> None:
+    """Seed 1000's modes both lose more validation successes than they rescue: "none" (0 / 0) is chosen and
+    its row is BVMC's own test episodes; seed 2000's retry rescues and is chosen. "none" runs no stage."""
+    cfg = parse_config(
+        [
+            "--task=door-open-v3",
+            "--preset=metaworld",
+            f"--output_dir={tmp_path}",
+            "--recovery_choice=[init,retry,none]",
+            "--train.extra_seeds=[2000]",
+        ]
+    )
+    stages = build_stages(cfg)
+    assert not [s for s in stages if s.name.startswith("choice_bvmc_fc1_none")]
+    fail4 = [False] * 4 + [True] * 6
+    validation = {
+        1000: ([True] + [False] * 5 + [True] * 4, [False] * 6 + [True] * 4),  # init 1 / 2, retry 0 / 2
+        2000: ([False] * 4 + [True] * 6, [True] * 2 + [False] * 2 + [True] * 6),  # retry 2 / 0
+    }
+    test = {("init", s): [True] * 10 for s in (1000, 2000)} | {
+        ("retry", s): [True] * 10 for s in (1000, 2000)
+    }
+    for stage in stages:
+        name, out = stage.name, stage.output
+        seed = 2000 if name.endswith("_seed2000") else 1000
+        if name.startswith("threshold_fc1"):
+            info = eval_info("val", fail4)
+        elif name.startswith("choice_bvmc_fc1_"):
+            info = eval_info("val", validation[seed][0 if "_init" in name else 1])
+        elif name.startswith("eval_"):
+            mode = next((m for m in ("init", "retry") if f"_{m}" in name), None)
+            info = eval_info("test", test[mode, seed] if mode else fail4)
+        else:
+            continue
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "eval_info.json").write_text(json.dumps(info))
+    ended = {f"detect_fc1{sfx}" for sfx in ("", "_seed2000")}
+    _, recovery_rows = training_seed_rows(cfg, stages, [1], ended)
+    chosen = {row["train_seed"]: row for row in recovery_rows if row["method"] == "chosen"}
+    assert (
+        chosen[1000]["choice"]["chosen_mode"] == "none" and chosen[2000]["choice"]["chosen_mode"] == "retry"
+    )
+    assert chosen[1000]["choice"]["validation"]["none"]["rescued"] == 0
+    assert chosen[1000]["subtasks"]["success"]["rate"] == 60.0  # BVMC's own test row, not a mode's 100%
+    assert (chosen[1000]["rescue"]["rescued"], chosen[1000]["rescue"]["lost"]) == (0, 0)
+    _, pooled = spread_over_seeds([], recovery_rows)
+    pooled_chosen = next(p for p in pooled if p["method"] == "chosen")
+    assert (pooled_chosen["failures"], pooled_chosen["rescued"], pooled_chosen["lost"]) == (8, 4, 0)
+
+
+def test_a_trigger_row_runs_its_mode_with_the_trigger_s_flags_on_validation_and_test(tmp_path: Path) -> None:
+    cfg = parse_config(
+        [
+            "--task=hand-insert-v3",
+            "--preset=metaworld",
+            f"--output_dir={tmp_path}",
+            "--recovery_modes=[none,init,init_deadline_only,reach_carry_frame_grasp_miss]",
+            "--recovery_choice=[none,init,init_deadline_only,reach_carry_frame_grasp_miss]",
+        ]
+    )
+    stages = {stage.name: stage for stage in build_stages(cfg)}
+    late = stages["choice_bvmc_fc1_init_deadline_only"]
+    assert {"--recovery.mode=init", "--recovery.threshold=1e9", "--recovery.deadline=auto"} <= set(late.argv)
+    assert late.settings == stages["eval_bvmc_fc1_init_deadline_only"].settings
+    grasp = stages["eval_bvmc_fc1_reach_carry_frame_grasp_miss"]
+    assert {"--recovery.mode=reach", "--recovery.reach.object=frame", "--recovery.grasp_miss=30"} <= set(
+        grasp.argv
+    )
+    assert "--recovery.threshold=1e9" not in grasp.argv  # the score still fires
+
+
+def test_choices_that_cannot_be_made_say_what_to_do(capsys) -> None:
+    import pytest
+
+    from lerobot_ivmc.scripts.lerobot_ivmc_pipeline import main as pipeline_main
+
+    def refusal(*args: str) -> str:
+        with pytest.raises(SystemExit) as ended:
+            pipeline_main(["--task=door-open-v3", "--preset=metaworld", *args])
+        assert ended.value.code == 2, args
+        return capsys.readouterr().err
+
+    assert "nothing to choose" in refusal("--recovery_choice=[none]")
+    assert "unknown ['init_soon']" in refusal("--recovery_modes=[none,init_soon]", "--recovery_choice=[]")

@@ -270,6 +270,29 @@ def test_a_head_distilled_on_widened_actions_makes_min_unc_widen_its_candidates(
     assert info["recovery"]["candidate_noise"] == 0.0
 
 
+def test_a_deadline_read_from_the_threshold_record_fires_where_the_score_never_does(
+    tiny_recovery_checkpoint: Path, tmp_path: Path
+) -> None:
+    """`--recovery.deadline=auto` takes the record's deadline (the longest validation success + 1); the
+    tiny policy never succeeds, so its own record holds none and auto is refused; a copy given one fires
+    retries at it, each event naming its cause."""
+    record = ThresholdRecord.load(tiny_recovery_checkpoint)
+    assert record.deadline is None  # no validation episode succeeded
+    flags = ["--recovery.mode=retry", "--recovery.threshold=1e9", "--recovery.deadline=auto"]
+    with pytest.raises(ValueError, match="holds none"):
+        evaluate(tiny_recovery_checkpoint, tmp_path / "refused", *flags)
+    given = tmp_path / "with_deadline"
+    shutil.copytree(tiny_recovery_checkpoint, given)
+    payload = json.loads((given / THRESHOLD_FILE).read_text()) | {"deadline": 12}
+    (given / THRESHOLD_FILE).write_text(json.dumps(payload))
+    info = evaluate(given, tmp_path / "auto", *flags, "--recovery.initial_interval=0")
+    assert info["recovery"]["settings"]["deadline"] == 12
+    assert info["recovery"]["deadline_source"].startswith("checkpoint")
+    events = [event for e in info["per_episode"] for event in e["recoveries"]]
+    assert events and all(event["cause"] == "deadline" for event in events)
+    assert min(event["step"] for event in events) == 11  # the twelfth step of the policy
+
+
 def test_bad_requests_say_what_to_do(
     tiny_bvmc: Path, tiny_foresight: Path, tiny_recovery_checkpoint, tmp_path
 ):

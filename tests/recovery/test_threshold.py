@@ -82,6 +82,28 @@ def test_resolve_threshold_prefers_override_and_refuses_mismatches() -> None:
         resolve_threshold("min_unc", None, 10, record(), "pick_place")
 
 
+def test_the_deadline_comes_from_the_flag_or_the_record_and_auto_without_one_says_what_to_do() -> None:
+    from dataclasses import replace
+
+    from lerobot_ivmc.evaluation.threshold_picking import success_deadline
+    from lerobot_ivmc.recovery.threshold import resolve_deadline
+
+    assert success_deadline([40, 300, 117, 300], [True, False, True, False]) == 118
+    assert success_deadline([300, 300], [False, False]) is None
+    assert resolve_deadline(0, record()) == (0, "none")
+    assert resolve_deadline(90, None) == (90, "flag")
+    assert resolve_deadline("auto", replace(record(), deadline=118)) == (118, "checkpoint")
+    for without in (None, record()):  # no record; a record without a deadline (no validation success)
+        with pytest.raises(
+            ValueError, match=r"lerobot-ivmc-threshold .* or pass --recovery.deadline=<steps>"
+        ):
+            resolve_deadline("auto", without)
+    with pytest.raises(ValueError, match="a number of steps or 'auto'"):
+        RecoveryConfig(mode="retry", deadline="soon")
+    with pytest.raises(ValueError, match="deadline must be >= 1"):
+        replace(record(), deadline=0)
+
+
 def test_a_nan_threshold_or_uncertainty_is_refused_wherever_it_is_read_or_written(tmp_path) -> None:
     """NaN > C is never true: a NaN threshold would silently turn recovery off (min unc = BVMC)."""
     with pytest.raises(ValueError, match=r"validation episodes' u must be finite, got nan at \[1\]"):

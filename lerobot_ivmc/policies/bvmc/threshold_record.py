@@ -51,6 +51,8 @@ class ThresholdRecord:
         baseline_quantile: which quantile, chosen on the validation episodes.
         score_auroc: where the picking weighed the time-conditioned score, the validation AUROC of each
             score ("window_sum", "time_conditioned": cross-fitted; None without a failure).
+        deadline: the longest successful validation episode's steps + 1, what `--recovery.deadline=auto`
+            fires at; None without a successful episode (or in a record picked before it was kept).
     """
 
     threshold: float
@@ -65,6 +67,7 @@ class ThresholdRecord:
     baseline: list[float] | None = None
     baseline_quantile: float | None = None
     score_auroc: dict[str, float | None] | None = None
+    deadline: int | None = None
 
     def __post_init__(self) -> None:
         check_finite("The threshold", self.threshold)
@@ -74,6 +77,10 @@ class ThresholdRecord:
         ):
             raise ValueError(
                 "The baseline's window sums must be positive, at least one: pick the threshold again."
+            )
+        if self.deadline is not None and self.deadline < 1:
+            raise ValueError(
+                f"The deadline must be >= 1 step, got {self.deadline}: pick the threshold again."
             )
 
     def save(self, folder: Path) -> Path:
