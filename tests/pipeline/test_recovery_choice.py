@@ -68,6 +68,27 @@ def eval_info(split: str, outcomes: list[bool], threshold: float = 1.0) -> dict:
     }
 
 
+def seed_rows(cfg, stages: list, plain: list[bool], validation: dict, test: dict) -> list[dict]:
+    """Write every threshold, choice and test run of seeds 1000 and 2000 (BVMC's outcomes `plain`; init's
+    and retry's per seed in `validation` and `test`) and return the seeds' recovery rows."""
+    for stage in stages:
+        name, out = stage.name, stage.output
+        seed = 2000 if name.endswith("_seed2000") else 1000
+        if name.startswith("threshold_fc1"):
+            info = eval_info("val", plain)
+        elif name.startswith("choice_bvmc_fc1_"):
+            info = eval_info("val", validation[seed][0 if "_init" in name else 1])
+        elif name.startswith("eval_"):
+            mode = next((m for m in ("init", "retry") if f"_{m}" in name), None)
+            info = eval_info("test", test[mode, seed] if mode else plain)
+        else:
+            continue
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "eval_info.json").write_text(json.dumps(info))
+    ended = {f"detect_fc1{sfx}" for sfx in ("", "_seed2000")}
+    return training_seed_rows(cfg, stages, [1], ended)[1]
+
+
 def test_each_seed_s_chosen_row_is_its_choice_s_test_row_and_pools_over_the_seeds(tmp_path: Path) -> None:
     """Seed 1000's validation favours init, seed 2000's retry: each seed's "chosen" row carries its own
     choice's test episodes, and the pooled rescue sums those, not one mode's."""
@@ -93,22 +114,7 @@ def test_each_seed_s_chosen_row_is_its_choice_s_test_row_and_pools_over_the_seed
         ("init", 2000): [False] * 4 + [True] * 6,
         ("retry", 2000): [True] + [False] * 3 + [True] * 6,
     }
-    for stage in stages:
-        name, out = stage.name, stage.output
-        seed = 2000 if name.endswith("_seed2000") else 1000
-        if name.startswith("threshold_fc1"):
-            info = eval_info("val", fail4)
-        elif name.startswith("choice_bvmc_fc1_"):
-            info = eval_info("val", validation[seed][0 if "_init" in name else 1])
-        elif name.startswith("eval_"):
-            mode = next((m for m in ("init", "retry") if f"_{m}" in name), None)
-            info = eval_info("test", test[mode, seed] if mode else fail4)
-        else:
-            continue
-        out.mkdir(parents=True, exist_ok=True)
-        (out / "eval_info.json").write_text(json.dumps(info))
-    ended = {f"detect_fc1{sfx}" for sfx in ("", "_seed2000")}
-    _, recovery_rows = training_seed_rows(cfg, stages, [1], ended)
+    recovery_rows = seed_rows(cfg, stages, fail4, validation, test)
     chosen = {row["train_seed"]: row for row in recovery_rows if row["method"] == "chosen"}
     assert {seed: row["choice"]["chosen_mode"] for seed, row in chosen.items()} == {
         1000: "init",
@@ -144,22 +150,7 @@ def test_none_is_chosen_where_every_mode_loses_on_validation_and_reports_bvmc_s_
     test = {("init", s): [True] * 10 for s in (1000, 2000)} | {
         ("retry", s): [True] * 10 for s in (1000, 2000)
     }
-    for stage in stages:
-        name, out = stage.name, stage.output
-        seed = 2000 if name.endswith("_seed2000") else 1000
-        if name.startswith("threshold_fc1"):
-            info = eval_info("val", fail4)
-        elif name.startswith("choice_bvmc_fc1_"):
-            info = eval_info("val", validation[seed][0 if "_init" in name else 1])
-        elif name.startswith("eval_"):
-            mode = next((m for m in ("init", "retry") if f"_{m}" in name), None)
-            info = eval_info("test", test[mode, seed] if mode else fail4)
-        else:
-            continue
-        out.mkdir(parents=True, exist_ok=True)
-        (out / "eval_info.json").write_text(json.dumps(info))
-    ended = {f"detect_fc1{sfx}" for sfx in ("", "_seed2000")}
-    _, recovery_rows = training_seed_rows(cfg, stages, [1], ended)
+    recovery_rows = seed_rows(cfg, stages, fail4, validation, test)
     chosen = {row["train_seed"]: row for row in recovery_rows if row["method"] == "chosen"}
     assert (
         chosen[1000]["choice"]["chosen_mode"] == "none" and chosen[2000]["choice"]["chosen_mode"] == "retry"
