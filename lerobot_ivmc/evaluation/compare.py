@@ -98,7 +98,7 @@ def rescue_record(bvmc: dict, recovered: dict, milestone: str) -> dict:
     Returns:
         failures: scenes the policy failed without recovery; flagged: those of them whose u crossed the
         recovery run's threshold (where a recovery could start; None where the runs' u differ in kind, or
-        where the recovery run's deadline also fires recoveries);
+        where the recovery run's deadline or missed grasp also fires recoveries);
         rescued: failed without recovery, succeeded with it; lost: the reverse; rescue_rate: (rescued -
         lost) / failures (None without failures); mcnemar_exact_p: the paired test of rescued against lost.
     """
@@ -112,14 +112,19 @@ def rescue_record(bvmc: dict, recovered: dict, milestone: str) -> dict:
         # Only where both runs' u are on the threshold's scale (a threshold picked for the time-conditioned
         # score scores the run without recovery it is picked on by the window sum; baselines differ).
         "flagged": sum(e["max_uncertainty"] > threshold for e in failures)
-        if score_kind(bvmc) == score_kind(recovered)
-        and not recovered["recovery"].get("settings", {}).get("deadline")
+        if score_kind(bvmc) == score_kind(recovered) and not other_triggers(recovered)
         else None,
         "rescued": rescued,
         "lost": lost,
         "rescue_rate": (rescued - lost) / len(failures) if failures else None,
         "mcnemar_exact_p": pair["mcnemar_exact_p"],
     }
+
+
+def other_triggers(run: dict) -> bool:
+    """Whether a recovery run also fired on something else than its score (a deadline, a missed grasp)."""
+    settings = run.get("recovery", {}).get("settings", {})
+    return bool(settings.get("deadline") or settings.get("grasp_miss"))
 
 
 def time_conditioned(run: dict) -> bool:

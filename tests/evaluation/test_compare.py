@@ -88,6 +88,8 @@ def test_rescue_counts_the_failures_a_recovery_turned_into_successes() -> None:
     # A deadline fires recoveries whatever u: u above C no longer says which failures a recovery met.
     recovered["recovery"]["settings"] = {"deadline": 80}
     assert rescue_record(bvmc, recovered, "place")["flagged"] is None
+    recovered["recovery"]["settings"] = {"deadline": 0, "grasp_miss": 30}  # so does a missed grasp
+    assert rescue_record(bvmc, recovered, "place")["flagged"] is None
     never_failed = run([True, True])
     assert (
         rescue_record(never_failed, {**run([True, True]), "recovery": {"threshold": 1.0}}, "place")[
