@@ -98,3 +98,24 @@ def test_bad_settings_say_what_to_do() -> None:
             IDENTITY_STATS,
             embodiment=FETCH,
         )
+
+
+def test_the_sawyer_closing_on_air_in_metaworld_reads_closed_on_nothing_and_alarms() -> None:
+    """MetaWorld's own env: the hand rises with the grab effort of its policies (0.6) and closes on air; the
+    opening it reports falls below the Sawyer's held gap and the alarm rises after its run; opened, it does
+    not."""
+    from lerobot_ivmc.envs.metaworld.env import SeededMetaworldEnv
+
+    env = SeededMetaworldEnv("pick-place-v3", split="val")
+    try:
+        for effort, expected in ((0.6, True), (-1.0, False)):
+            observation, _ = env.reset(seed=0)
+            alarm, up = GraspMissAlarm(1, 10, SAWYER), []
+            for t in range(40):
+                observation, *_ = env.step(np.array([0.0, 0.0, 0.5, effort], dtype=np.float32))
+                fingers = np.asarray(observation["agent_pos"])[None, list(SAWYER.finger_state_indices)]
+                if alarm.update(fingers, np.array([effort]), np.array([True]))[0]:
+                    up.append(t)
+            assert bool(up) is expected, (effort, fingers)
+    finally:
+        env.close()
