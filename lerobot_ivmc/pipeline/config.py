@@ -418,8 +418,8 @@ class PipelineConfig:
         choice = self.recovery_choice
         if not choice:
             return
-        if any(m not in CHOICE_ROWS for m in choice) or len(set(choice)) != len(choice):
-            unknown = [m for m in choice if m not in CHOICE_ROWS]
+        unknown = [m for m in choice if m not in CHOICE_ROWS]
+        if unknown or len(set(choice)) != len(choice):
             raise ValueError(
                 "--recovery_choice chooses among distinct modes that know no task (none, rand, init, "
                 f"min_unc, retry, reach, their variants and triggers: lerobot_ivmc/pipeline/config.py); got "

@@ -146,8 +146,10 @@ class RecoveryConfig:
                     f"--recovery.{name} fires a recovery; with --recovery.mode=none there is none to fire: "
                     "drop it or choose a mode."
                 )
-        numbers = ("initial_interval", "max_videos", "max_recoveries", "grasp_miss")
-        for name in (*numbers, *(("deadline",) if self.deadline != AUTO else ())):
+        counts = ["initial_interval", "max_videos", "max_recoveries", "grasp_miss"]
+        if self.deadline != AUTO:  # "auto" is resolved from the threshold record later
+            counts.append("deadline")
+        for name in counts:
             if getattr(self, name) < 0:
                 raise ValueError(f"--recovery.{name} must be >= 0, got {getattr(self, name)}.")
         for name in ("backtrack_horizon", "recovery_steps"):
