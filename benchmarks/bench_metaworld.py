@@ -6,6 +6,7 @@ minute. Every ratio is measured in this one run.
 python benchmarks/bench_metaworld.py                      # 10 scripted episodes per task, 20 demos
 python benchmarks/bench_metaworld.py --episodes 50 --demos 50
 python benchmarks/bench_metaworld.py --scripted_only --episodes 50 --noise 0 --demo_steps 150 200
+python benchmarks/bench_metaworld.py --scripted_only --episodes 300 --keep_acting   # no hold once done
 python benchmarks/bench_metaworld.py --env_only --steps 500
 """
 
@@ -23,7 +24,8 @@ from lerobot.envs.metaworld import MetaworldEnv  # noqa: E402
 
 from lerobot_ivmc.datasets.collect import collect_demos  # noqa: E402
 from lerobot_ivmc.datasets.collect_config import CollectConfig  # noqa: E402
-from lerobot_ivmc.datasets.expert_attempts import ActionNoise  # noqa: E402
+from lerobot_ivmc.datasets.expert_attempts import attempt_seed  # noqa: E402
+from lerobot_ivmc.datasets.metaworld_attempts import run_scripted_episode  # noqa: E402
 from lerobot_ivmc.envs.coarse_meshes import coarse_meshes  # noqa: E402
 from lerobot_ivmc.envs.metaworld.env import SeededMetaworldEnv  # noqa: E402
 from lerobot_ivmc.envs.render_styles import RENDER_STYLES  # noqa: E402
@@ -91,23 +93,31 @@ def lean_difference(task: str, steps: int = 60) -> tuple[float, float, int, int]
     return difference.mean(), (difference.max(-1) > 16).mean(), int(model.mesh_facenum.sum()), lean_faces
 
 
+class _UndrawnMetaworldEnv(SeededMetaworldEnv):
+    """The demos' env without its camera drawn (frames do not change the physics): scripted runs only."""
+
+    def _render(self, size: int) -> np.ndarray:
+        return np.zeros((size, size, 3), np.uint8)
+
+
 def scripted_success(
-    task: str, episodes: int, noise_std: float = NOISE, demo_steps: tuple[int, ...] = (150,)
+    task: str,
+    episodes: int,
+    noise_std: float = NOISE,
+    demo_steps: tuple[int, ...] = (150,),
+    hold_once_done: bool = True,
 ) -> tuple[dict[int, int], list[int]]:
     """The noisy scripted policy's successes at each of `demo_steps` (a demo of that length is kept only if
-    done at its last step) and its steps to first success. Physics only: the policy reads the 39-D state."""
-    env = SeededMetaworldEnv(task, split="train", terminate_on_success=False)
+    done at its last step) and its steps to first success, on the scenes of a collection's first `episodes`
+    attempts (`--seed=0`), as `lerobot-ivmc-collect` runs them (holding once done, unless told not to)."""
+    env = _UndrawnMetaworldEnv(task, split="train", terminate_on_success=False)
     wins, first = dict.fromkeys(demo_steps, 0), []
-    for seed in range(episodes):
-        observation, _ = env.reset(seed=seed)
-        state, noise, reached = observation["environment_state"], ActionNoise(noise_std, seed), None
-        for t in range(1, max(demo_steps) + 1):
-            action = np.clip(env.expert_policy.get_action(state), -1, 1)
-            state, _, _, _, info = env.raw_env.step(noise(action))
-            reached = t if reached is None and info["success"] else reached
-            if t in wins:
-                wins[t] += int(info["success"])
-        first += [reached] if reached is not None else []
+    for attempt in range(episodes):
+        seed = attempt_seed(0, attempt)
+        successes = run_scripted_episode(env, seed, max(demo_steps), noise_std, hold_once_done=hold_once_done)
+        for n in demo_steps:
+            wins[n] += int(successes[n - 1])
+        first += [successes.index(True) + 1] if any(successes) else []
     env.close()
     return wins, first
 
@@ -121,6 +131,9 @@ def main() -> None:
     parser.add_argument("--demo_steps", type=int, nargs="+", default=[150], help="demo lengths to score")
     parser.add_argument("--tasks", nargs="+", default=list(TASKS), help="tasks of the scripted runs")
     parser.add_argument("--scripted_only", action="store_true", help="only the scripted policies' success")
+    parser.add_argument(
+        "--keep_acting", action="store_true", help="scripted runs that act on once done (no hold)"
+    )
     parser.add_argument("--env_only", action="store_true", help="only the env step rates")
     args = parser.parse_args()
     if not 5 <= args.steps <= 500 or not all(1 <= n <= 500 for n in args.demo_steps):
@@ -131,14 +144,18 @@ def main() -> None:
     if args.env_only:
         return
     lengths = "/".join(map(str, args.demo_steps))
+    after = "acting on once done" if args.keep_acting else "holding once done"
     print(
-        f"scripted policies, N(0, {args.noise}) xyz noise, {lengths}-step demos, {args.episodes} scenes each:"
+        f"scripted policies, N(0, {args.noise}) xyz noise, {lengths}-step demos, {args.episodes} scenes "
+        f"each, {after}:"
     )
     for task in args.tasks:
-        wins, first = scripted_success(task, args.episodes, args.noise, tuple(args.demo_steps))
+        wins, first = scripted_success(
+            task, args.episodes, args.noise, tuple(args.demo_steps), not args.keep_acting
+        )
         median = int(np.median(first)) if first else None
         done = ", ".join(f"{count}/{args.episodes} done at step {n}" for n, count in wins.items())
-        print(f"  {task:<20}: {done}; median first success at step {median}")
+        print(f"  {task:<20}: {done}; done at some step in {len(first)}, median first at step {median}")
     if not args.scripted_only:
         collection_rates(args.demos)
 

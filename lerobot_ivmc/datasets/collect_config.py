@@ -34,8 +34,8 @@ class CollectConfig:
             the recorded action stays the expert's (DART); 0 records the expert's own trajectories.
         episode_steps: steps of every demo; None: the suite's default (Fetch: 100, 4 s at 25 Hz, up to 200,
             the rollouts' limit; MetaWorld: 150 of its 500). Success does not end a demo: once done, the
-            expert holds its final pose (MetaWorld's policy keeps acting), and the demo counts only if the
-            task is done at its last step.
+            expert holds (the Fetch expert its final pose against the noise, MetaWorld's scripted policy
+            still, without noise), and the demo counts only if the task is done at its last step.
         push_to_hub: publish the finished dataset with `LeRobotDataset.push_to_hub`.
         private: make the hub repository private.
         progress: show a progress bar.
@@ -93,20 +93,14 @@ class CollectConfig:
 
     def spec(self) -> dict:
         """What the dataset in `root` must match to be resumed or reused (the episode count aside)."""
-        # Noise-free collections keep the spec they had before noise injection existed. Noisy ones name the
-        # expert's behaviour after its last waypoint (it holds that pose against the noise; before, it
-        # stood still and let the noise random-walk the arm), so the two kinds never mix in one dataset.
-        noise = (
-            {"action_noise": self.action_noise, "expert_after_last_waypoint": "hold"}
-            if self.action_noise > 0
-            else {}
-        )
+        # Every MetaWorld collection and every noisy Fetch one names the expert's hold once its task is
+        # done, so that demos recorded before the hold never mix with new ones.
+        suite = self.suite
         # Datasets of the Fetch XML's look keep the spec they had before render styles existed.
         style = {} if self.render_style == LEGACY_RENDER_STYLE else {"render_style": self.render_style}
-        suite = self.suite
         return staging.normalise(
             {
-                **noise,
+                **suite.expert_spec(self.action_noise),
                 **style,
                 "task": self.task,
                 "gym_id": suite.gym_id(self.task),

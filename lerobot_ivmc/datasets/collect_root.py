@@ -8,24 +8,25 @@ from pathlib import Path
 from lerobot_ivmc.datasets import staging
 from lerobot_ivmc.datasets.collect_config import CollectConfig
 from lerobot_ivmc.datasets.collection_record import spec_render_style
+from lerobot_ivmc.datasets.demo_suites import suite_of
 from lerobot_ivmc.datasets.root_lock import LOCK_FILE
-from lerobot_ivmc.envs import DEMO_EPISODE_STEPS
 
 
 def resume_hint(cfg: CollectConfig, spec: dict) -> str:
     """How to continue an unfinished collection of `spec` in `cfg.root`, or drop it."""
     drop = f"to drop it, remove {cfg.root / staging.WORK_DIR}."
-    if made_by_the_drifting_expert(spec):
+    if recorded_before_the_hold(spec):
         return (
-            "Its demos were recorded by the expert of before the final-pose hold, which no command of this "
-            f"version records: {drop}"
+            "Its demos were recorded by the expert of before its hold once the task is done, which no "
+            f"command of this version records: {drop}"
         )
     args = f"--env.task={spec['task']} --env.split={spec['split']} --seed={spec['seed']}"
     args += f" --env.image_size={spec['image_size']}"
     args += f" --env.render_style={spec_render_style(spec)}"
     args += " --dataset.video=true" * bool(spec.get("video"))
     args += f" --action_noise={spec['action_noise']}" if spec.get("action_noise") else ""
-    if spec.get("episode_steps", DEMO_EPISODE_STEPS) != DEMO_EPISODE_STEPS:
+    default_steps = suite_of(spec["task"]).default_episode_steps
+    if spec.get("episode_steps", default_steps) != default_steps:
         args += f" --dataset.episode_steps={spec['episode_steps']}"
     return (
         f"To finish it, rerun with its arguments: lerobot-ivmc-collect --dataset.root={cfg.root} "
@@ -33,9 +34,9 @@ def resume_hint(cfg: CollectConfig, spec: dict) -> str:
     )
 
 
-def made_by_the_drifting_expert(spec: dict) -> bool:
-    """A noisy collection of before the expert held its final pose (its spec does not name the hold)."""
-    return bool(spec.get("action_noise")) and "expert_after_last_waypoint" not in spec
+def recorded_before_the_hold(spec: dict) -> bool:
+    """A collection of before its expert held once the task was done (its spec does not name the hold)."""
+    return suite_of(spec["task"]).recorded_before_the_hold(spec)
 
 
 def foreign_entries(root: Path, ours: set[str]) -> list[str]:
@@ -88,11 +89,10 @@ def prepare_root(cfg: CollectConfig) -> Path | None:
             raise ValueError(f"{root} holds a LeRobot dataset not made by lerobot-ivmc-collect; refusing.")
         collection = staging.read_json(info_path)
         diffs = staging.spec_differences(collection["spec"], wanted)
-        if diffs and made_by_the_drifting_expert(collection["spec"]):
+        if diffs and recorded_before_the_hold(collection["spec"]):
             raise ValueError(
-                f"{root} holds noisy demos recorded before the expert held its final pose (after its last "
-                "waypoint it stood still while the noise moved the arm); this version records the hold. "
-                "Keep that dataset and collect into a new --dataset.root."
+                f"{root} holds {suite_of(collection['spec']['task']).before_hold}; this version records the "
+                "hold. Keep that dataset and collect into a new --dataset.root."
             )
         if diffs:
             raise ValueError(f"{root} holds a dataset of another spec: {'; '.join(diffs)}.")

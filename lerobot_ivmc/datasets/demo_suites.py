@@ -31,6 +31,11 @@ class DemoSuite:
         scene_cells: whether frames carry the scene's grid cells (the Fetch tasks' spawn grids).
         aux_state_indices: the entries of `observation.environment_state` the policies' auxiliary heads
             learn (`VMCConfig.aux_state_indices`); None: the whole 6-D state.
+        hold_key: the spec entry that names the expert's hold once its task is done, so that demos of
+            before the hold never mix with new ones.
+        hold_without_noise: whether noise-free collections name it too (the Fetch expert stood still
+            without noise before its hold; MetaWorld's scripted policy kept acting with or without).
+        before_hold: what the demos of before the hold were, for the refusal that keeps them apart.
     """
 
     name: str
@@ -41,7 +46,21 @@ class DemoSuite:
     default_render_style: str
     recorder: str
     scene_cells: bool
+    hold_key: str
+    hold_without_noise: bool
+    before_hold: str
     aux_state_indices: tuple[int, ...] | None = None
+
+    def expert_spec(self, action_noise: float) -> dict:
+        """The collection spec's entries for the expert: its noise and its hold once the task is done."""
+        spec: dict = {"action_noise": action_noise} if action_noise > 0 else {}
+        if action_noise > 0 or self.hold_without_noise:
+            spec[self.hold_key] = "hold"
+        return spec
+
+    def recorded_before_the_hold(self, spec: dict) -> bool:
+        """Whether a stored collection spec was recorded before the expert held once its task was done."""
+        return bool(self.hold_without_noise or spec.get("action_noise")) and self.hold_key not in spec
 
     def check_episode_steps(self, flag: str, steps: int) -> int:
         """Return `steps` if demos may last that long, else raise a ValueError naming `flag` and the range."""
@@ -80,6 +99,10 @@ FETCH = DemoSuite(
     default_render_style=DEFAULT_RENDER_STYLE,
     recorder="lerobot_ivmc.datasets.expert_attempts:Recorder",
     scene_cells=True,
+    hold_key="expert_after_last_waypoint",
+    hold_without_noise=False,
+    before_hold="noisy demos recorded before the expert held its final pose (after its last waypoint it "
+    "stood still while the noise moved the arm)",
 )
 METAWORLD = DemoSuite(
     name="metaworld",
@@ -90,6 +113,10 @@ METAWORLD = DemoSuite(
     default_render_style="flat",
     recorder="lerobot_ivmc.datasets.metaworld_attempts:MetaworldRecorder",
     scene_cells=False,
+    hold_key="expert_after_success",
+    hold_without_noise=True,
+    before_hold="demos recorded before the scripted policy held still once the task was done (it kept "
+    "acting, and undid about 1 in 10 push-v3 demos)",
     aux_state_indices=mw_state.AUX_STATE_INDICES,
 )
 

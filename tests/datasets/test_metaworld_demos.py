@@ -4,6 +4,7 @@ hub's `lerobot/metaworld_mt50`, and `vmc` / `bvmc` trained on them by LeRobot's 
 from __future__ import annotations
 
 import json
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -14,6 +15,7 @@ import pyarrow.parquet as pq
 import pytest
 from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
+from lerobot_ivmc.datasets import staging
 from lerobot_ivmc.datasets.collect import collect_demos
 from lerobot_ivmc.datasets.collect_config import CollectConfig
 
@@ -80,6 +82,41 @@ def test_demos_load_with_lerobot_in_the_hub_layout(demos: Path) -> None:
     assert actions.shape[1] == 4 and np.abs(actions).max() <= 1.0  # clipped to the action space
     assert frame["task"] == "Push the puck to a goal"
     assert dataset.meta.episodes["length"][0] == 150
+
+
+def test_once_the_task_is_done_the_scripted_policy_holds_still(demos: Path) -> None:
+    """MetaWorld's scripted policy keeps acting once done (and so undid about 1 in 10 noisy push-v3 demos);
+    the recorder holds instead: from some frame on, no motion and one grab effort, the hand settling where
+    it was sent and the puck with it."""
+    dataset = LeRobotDataset(f"local/{TASK}", root=demos)
+    for episode in range(dataset.num_episodes):
+        start, end = (
+            int(dataset.meta.episodes[key][episode]) for key in ("dataset_from_index", "dataset_to_index")
+        )
+        frames = [dataset[i] for i in range(start, end)]
+        actions = np.stack([frame["action"].numpy() for frame in frames])
+        state = np.stack([frame["observation.environment_state"].numpy() for frame in frames])
+        moving = np.flatnonzero(np.abs(actions[:, :3]).max(axis=1) > 0)
+        held_from = int(moving[-1]) + 1
+        assert 0 < held_from < len(frames) - 10, "the demo holds for its last frames, after the policy acted"
+        assert len(np.unique(actions[held_from:, 3])) == 1
+        # the hand (entries 0-2) settles where it was sent, the puck (4-6) with it: under 0.5 mm a frame at
+        # the end (acting, the hand moves up to a centimetre a frame)
+        last_steps = np.diff(state[-10:, [0, 1, 2, 4, 5, 6]], axis=0)
+        assert np.abs(last_steps).max() < 5e-4
+
+
+def test_demos_of_before_the_hold_are_kept_apart(demos: Path, tmp_path: Path) -> None:
+    """A MetaWorld dataset recorded while the policy kept acting once done is never extended with held
+    demos; the refusal says why and what to do."""
+    old = tmp_path / "old"
+    shutil.copytree(demos, old)
+    info_path = old / staging.COLLECTION_INFO_PATH
+    info = staging.read_json(info_path)
+    del info["spec"]["expert_after_success"]  # as the recorder of before the hold wrote it
+    staging.write_json(info_path, info)
+    with pytest.raises(ValueError, match="before the scripted policy held still.*new --dataset.root"):
+        collect(old)
 
 
 def test_the_same_arguments_give_byte_identical_demos(demos: Path, tmp_path: Path) -> None:
