@@ -33,6 +33,7 @@ from lerobot_ivmc.pipeline.tables import (
     markdown_table,
     perception_table,
     pooled_rescue_table,
+    row_label,
     training_seed_table,
 )
 from lerobot_ivmc.recovery.threshold import ThresholdRecord
@@ -58,7 +59,7 @@ def table_rows(cfg: PipelineConfig, stages: list[Stage], fcs: list[int]) -> list
                 "model": "VMC" if method == "vmc" else "BVMC",
                 "num_fc_layers": fc,
                 "method": method,
-                "label": METHOD_LABELS[method],
+                "label": row_label(method),
                 "train_seed": cfg.train.seed,
                 "subtasks": subtask_rates(info),
                 "paper": {

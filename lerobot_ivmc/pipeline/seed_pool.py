@@ -10,7 +10,7 @@ from pathlib import Path
 
 from lerobot_ivmc.evaluation.compare import exact_mcnemar_p
 from lerobot_ivmc.pipeline.config import PipelineConfig
-from lerobot_ivmc.pipeline.tables import METHOD_LABELS, pooled_rescue_table, training_seed_table
+from lerobot_ivmc.pipeline.tables import pooled_rescue_table, row_label, row_sort_key, training_seed_table
 
 WITHOUT_RECOVERY = ("vmc", "none")
 
@@ -63,9 +63,8 @@ def spread_over_seeds(rows: list[dict], recovery_rows: list[dict]) -> tuple[list
     groups: dict[tuple[int, str], list[dict]] = {}
     for row in [*rows, *recovery_rows]:
         groups.setdefault((row["num_fc_layers"], row_method(row)), []).append(row)
-    order = list(METHOD_LABELS)
     summary, pooled = [], []
-    for (fc, method), per_seed in sorted(groups.items(), key=lambda kv: (kv[0][0], order.index(kv[0][1]))):
+    for (fc, method), per_seed in sorted(groups.items(), key=lambda kv: (kv[0][0], row_sort_key(kv[0][1]))):
         if method not in WITHOUT_RECOVERY:
             pooled.append(pooled_rescue(fc, method, per_seed))
         if len(per_seed) < 2:
@@ -76,7 +75,7 @@ def spread_over_seeds(rows: list[dict], recovery_rows: list[dict]) -> tuple[list
             spread[sub] = {"mean": statistics.mean(rates), "std": statistics.stdev(rates), "rates": rates}
         summary.append(
             {
-                "model": METHOD_LABELS[method],
+                "model": row_label(method),
                 "method": method,
                 "num_fc_layers": fc,
                 "train_seeds": [r["train_seed"] for r in per_seed],

@@ -26,6 +26,32 @@ METHOD_LABELS = {
     ),
     "chosen": "BVMC + the mode that knows no task chosen on validation scenes",
 }
+# A row `<row>_<trigger>` (`config.TRIGGER_VARIANTS`) is labelled as its row with its trigger.
+TRIGGER_LABELS = {
+    "deadline": "with the deadline",
+    "grasp_miss": "with the missed grasp",
+    "deadline_only": "under the deadline alone",
+    "grasp_miss_only": "under the missed grasp alone",
+    "grasp_miss_deadline_only": "under the missed grasp and the deadline alone",
+}
+
+
+def row_sort_key(method: str) -> tuple[int, int]:
+    """Where a row goes in the tables: its own row's place, then its trigger's (the row alone first)."""
+    for position, trigger in enumerate(TRIGGER_LABELS, start=1):
+        own = method.removesuffix(f"_{trigger}")
+        if own != method and own in METHOD_LABELS:
+            return list(METHOD_LABELS).index(own), position
+    if method not in METHOD_LABELS:
+        raise KeyError(f"No table label for the row {method!r}.")
+    return list(METHOD_LABELS).index(method), 0
+
+
+def row_label(method: str) -> str:
+    """A row's label in the tables: `METHOD_LABELS`, with its trigger for a `<row>_<trigger>` row."""
+    own, trigger = row_sort_key(method)
+    label = list(METHOD_LABELS.values())[own]
+    return f"{label}, {list(TRIGGER_LABELS.values())[trigger - 1]}" if trigger else label
 
 
 def training_seed_table(rows: list[dict], summary: list[dict]) -> str:
@@ -38,7 +64,7 @@ def training_seed_table(rows: list[dict], summary: list[dict]) -> str:
     ]
     for row in rows:
         cells = [f"{row['subtasks'][s]['rate']:.1f} +- {row['subtasks'][s]['stderr']:.1f}" for s in subtasks]
-        label = row.get("label") or (METHOD_LABELS[row["method"]] if "method" in row else row["model"])
+        label = row.get("label") or (row_label(row["method"]) if "method" in row else row["model"])
         lines.append(
             f"| {label} | {row['num_fc_layers']} | {row['train_seed']} | " + " | ".join(cells) + " |"
         )
@@ -61,7 +87,7 @@ def pooled_rescue_table(pooled: list[dict]) -> str:
     ]
     for entry in pooled:
         lines.append(
-            f"| {METHOD_LABELS[entry['method']]} | {entry['num_fc_layers']} | "
+            f"| {row_label(entry['method'])} | {entry['num_fc_layers']} | "
             f"{', '.join(map(str, entry['train_seeds']))} | {rescue_cells(entry)} | {entry['exact_p']:.3f} |"
         )
     return "\n".join(lines) + "\n"

@@ -6,10 +6,11 @@ import json
 from pathlib import Path
 
 from lerobot_ivmc.pipeline.recovery_choice import choose_mode
-from lerobot_ivmc.pipeline.results import training_seed_rows
+from lerobot_ivmc.pipeline.results import table_rows, training_seed_rows
 from lerobot_ivmc.pipeline.seed_pool import spread_over_seeds
 from lerobot_ivmc.pipeline.stages import build_stages
 from lerobot_ivmc.pipeline.study import parse_config
+from lerobot_ivmc.pipeline.tables import pooled_rescue_table
 
 
 def record(rescued: int, lost: int) -> dict:
@@ -197,3 +198,31 @@ def test_choices_that_cannot_be_made_say_what_to_do(capsys) -> None:
 
     assert "nothing to choose" in refusal("--recovery_choice=[none]")
     assert "unknown ['init_soon']" in refusal("--recovery_modes=[none,init_soon]", "--recovery_choice=[]")
+
+
+def test_trigger_rows_of_a_study_are_tabled_as_their_row_with_their_trigger(tmp_path: Path) -> None:
+    """`--recovery_modes` with a `<row>_<trigger>` row: Table I and the pooled rescue label it as its row with
+    its trigger, right after its row, and pool it over the seeds like any row."""
+    cfg = parse_config(
+        [
+            "--task=door-open-v3",
+            "--preset=metaworld",
+            f"--output_dir={tmp_path}",
+            "--recovery_modes=[none,retry_grasp_miss,retry]",
+            "--recovery_choice=[retry,retry_grasp_miss]",
+            "--train.extra_seeds=[2000]",
+        ]
+    )
+    stages = build_stages(cfg)
+    fail4 = [False] * 4 + [True] * 6
+    validation = {seed: ([True] * 10, [True] * 10) for seed in (1000, 2000)}
+    test = {("retry", seed): [True] * 3 + [False] + [True] * 6 for seed in (1000, 2000)}
+    recovery_rows = seed_rows(cfg, stages, fail4, validation, test)
+    labels = {row["method"]: row["label"] for row in table_rows(cfg, stages, [1])}
+    assert labels["retry_grasp_miss"] == f"{labels['retry']}, with the missed grasp"
+    _, pooled = spread_over_seeds([], recovery_rows)
+    methods = [entry["method"] for entry in pooled]
+    assert methods.index("retry_grasp_miss") == methods.index("retry") + 1
+    grasp = pooled[methods.index("retry_grasp_miss")]
+    assert (grasp["failures"], grasp["rescued"], grasp["lost"]) == (8, 6, 0)
+    assert f"| {labels['retry_grasp_miss']} | 1 | 1000, 2000 |" in pooled_rescue_table(pooled)
