@@ -36,22 +36,27 @@ TRIGGER_LABELS = {
 }
 
 
-def row_sort_key(method: str) -> tuple[int, int]:
-    """Where a row goes in the tables: its own row's place, then its trigger's (the row alone first)."""
-    for position, trigger in enumerate(TRIGGER_LABELS, start=1):
+def split_trigger(method: str) -> tuple[str, str | None]:
+    """A row's own row in `METHOD_LABELS` and its trigger (None for a row without one)."""
+    for trigger in TRIGGER_LABELS:
         own = method.removesuffix(f"_{trigger}")
         if own != method and own in METHOD_LABELS:
-            return list(METHOD_LABELS).index(own), position
+            return own, trigger
     if method not in METHOD_LABELS:
         raise KeyError(f"No table label for the row {method!r}.")
-    return list(METHOD_LABELS).index(method), 0
+    return method, None
+
+
+def row_sort_key(method: str) -> tuple[int, int]:
+    """Where a row goes in the tables: its own row's place, then its trigger's (the row alone first)."""
+    own, trigger = split_trigger(method)
+    return list(METHOD_LABELS).index(own), 0 if trigger is None else list(TRIGGER_LABELS).index(trigger) + 1
 
 
 def row_label(method: str) -> str:
     """A row's label in the tables: `METHOD_LABELS`, with its trigger for a `<row>_<trigger>` row."""
-    own, trigger = row_sort_key(method)
-    label = list(METHOD_LABELS.values())[own]
-    return f"{label}, {list(TRIGGER_LABELS.values())[trigger - 1]}" if trigger else label
+    own, trigger = split_trigger(method)
+    return METHOD_LABELS[own] if trigger is None else f"{METHOD_LABELS[own]}, {TRIGGER_LABELS[trigger]}"
 
 
 def training_seed_table(rows: list[dict], summary: list[dict]) -> str:
