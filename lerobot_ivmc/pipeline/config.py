@@ -33,16 +33,18 @@ CONTROL_ROWS = {"anchor_control": ("anchor", ("--recovery.threshold=0",))}
 # object's believed offset unbounded (`_frame`). Which of them a task needs is chosen on validation scenes
 # like any mode that knows no task (`--recovery_choice`).
 CARRY, RELEASE = "--recovery.reach.carry=true", "--recovery.reach.release=true"
-ON_FRAMES = (
-    "--recovery.reach.object=frame",
-    "--recovery.reach.goal=frame",
-    "--recovery.reach.max_held_offset=0.5",
-)
+FRAME_READINGS = ("--recovery.reach.object=frame", "--recovery.reach.goal=frame")
+ON_FRAMES = (*FRAME_READINGS, "--recovery.reach.max_held_offset=0.5")
+# reach's push (an object moved without lifting it) to the believed goal, on the memory's heads or on the
+# frame position head's readings.
+PUSH = "--recovery.reach.push=true"
 VARIANT_ROWS = {
     "reach_carry": ("reach", (CARRY,)),
     "reach_place": ("reach", (CARRY, RELEASE)),
     "reach_carry_frame": ("reach", (CARRY, *ON_FRAMES)),
     "reach_place_frame": ("reach", (CARRY, RELEASE, *ON_FRAMES)),
+    "reach_push": ("reach", (PUSH,)),
+    "reach_push_frame": ("reach", (PUSH, *FRAME_READINGS)),
 }
 # Triggers beyond the uncertainty score (docs/recovery.md), added to a row that knows no task as
 # `<row>_<trigger>`: the deadline the threshold record holds, a missed grasp (the fingers closed on nothing

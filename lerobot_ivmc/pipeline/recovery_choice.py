@@ -3,7 +3,8 @@ on every task (retry on the Fetch tasks, init on door-open-v3), so each chain ch
 chooses its threshold, on validation scenes only, and the row "chosen" reports the chosen mode's test
 episodes. The rule: most validation failures rescued net of the successes lost; ties go to fewer lost, then
 to the mode listed first. "none" among the candidates (no recovery, 0 / 0) keeps recovery off where every
-mode loses more than it rescues."""
+mode loses more than it rescues. Over training seeds, the row "chosen over the seeds" applies the same rule
+once to the candidates' validation rescue summed over the seeds (`seed_pool.chosen_over_seeds`)."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ from lerobot_ivmc.pipeline.stage_names import choice_stage_name, threshold_stage
 from lerobot_ivmc.pipeline.stages import Stage, stage_output
 
 CHOSEN = "chosen"
+CHOSEN_OVER_SEEDS = "chosen_over_seeds"
 
 
 def choose_mode(validation: dict[str, dict]) -> str:

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from lerobot_ivmc.evaluation.compare import exact_mcnemar_p
 from lerobot_ivmc.pipeline.config import PipelineConfig
+from lerobot_ivmc.pipeline.recovery_choice import CHOSEN, CHOSEN_OVER_SEEDS, choose_mode
 from lerobot_ivmc.pipeline.tables import pooled_rescue_table, row_label, row_sort_key, training_seed_table
 
 WITHOUT_RECOVERY = ("vmc", "none")
@@ -58,7 +59,8 @@ def spread_over_seeds(rows: list[dict], recovery_rows: list[dict]) -> tuple[list
         summary: per (#fc, row) with at least two seeds, each subtask's mean and sample standard deviation
         over the seeds; pooled: per (#fc, recovery mode) the rescue counts summed over the seeds, the
         pooled rescue rate, and the exact test of rescued against lost over every seed's paired scenes (a
-        matched pair per scene and seed: the Mantel-Haenszel test for matched pairs).
+        matched pair per scene and seed: the Mantel-Haenszel test for matched pairs); after the row
+        "chosen", the row "chosen over the seeds" (`chosen_over_seeds`) where it can be made.
     """
     groups: dict[tuple[int, str], list[dict]] = {}
     for row in [*rows, *recovery_rows]:
@@ -67,6 +69,8 @@ def spread_over_seeds(rows: list[dict], recovery_rows: list[dict]) -> tuple[list
     for (fc, method), per_seed in sorted(groups.items(), key=lambda kv: (kv[0][0], row_sort_key(kv[0][1]))):
         if method not in WITHOUT_RECOVERY:
             pooled.append(pooled_rescue(fc, method, per_seed))
+        if method == CHOSEN and (over_seeds := chosen_over_seeds(fc, recovery_rows)) is not None:
+            pooled.append(over_seeds)
         if len(per_seed) < 2:
             continue
         spread = {}
@@ -109,6 +113,44 @@ def pooled_rescue(fc: int, method: str, per_seed: list[dict]) -> dict:
     }
 
 
+def chosen_over_seeds(fc: int, recovery_rows: list[dict]) -> dict | None:
+    """The row "chosen over the seeds": one mode for every training seed, by the choice rule
+    (`choose_mode`) on each candidate's validation rescue summed over the seeds, so that one seed's margin
+    of a rescue or two does not decide; its test rescue summed over the seeds. Made from the seeds' "chosen"
+    rows (each keeps its own choice); None with fewer than two of them, with different candidates, or where
+    a seed lacks the chosen mode's test row."""
+    choices = [
+        r for r in recovery_rows if r["num_fc_layers"] == fc and row_method(r) == CHOSEN and "choice" in r
+    ]
+    if len(choices) < 2:
+        return None
+    candidates = list(choices[0]["choice"]["validation"])
+    if any(list(r["choice"]["validation"]) != candidates for r in choices):
+        return None
+    validation = {m: summed_rescue([r["choice"]["validation"][m] for r in choices]) for m in candidates}
+    mode = choose_mode(validation)
+    seeds = [r["train_seed"] for r in choices]
+    if mode == "none":  # no recovery: nothing rescued or lost of each seed's failures
+        tests = [
+            {"failures": r["rescue"]["failures"], "flagged": None, "rescued": 0, "lost": 0} for r in choices
+        ]
+    else:
+        rows = {
+            r["train_seed"]: r for r in recovery_rows if r["num_fc_layers"] == fc and row_method(r) == mode
+        }
+        if any(seed not in rows for seed in seeds):
+            return None
+        tests = [rows[seed]["rescue"] for seed in seeds]
+    return {
+        "num_fc_layers": fc,
+        "method": CHOSEN_OVER_SEEDS,
+        "train_seeds": seeds,
+        "chosen_mode": mode,
+        "validation": validation,
+        **summed_rescue(tests),
+    }
+
+
 def study_seed_rows(results: dict) -> tuple[list[dict], list[dict]]:
     """A study's per-seed rows (without recovery, with recovery): its `training_seeds` section, or, for a
     study of one training seed, its Table I rows."""
@@ -120,7 +162,8 @@ def study_seed_rows(results: dict) -> tuple[list[dict], list[dict]]:
         if row["method"] in WITHOUT_RECOVERY:
             rows.append(seed_row)
         elif "rescue" in row:
-            recovery_rows.append({**seed_row, "method": row["method"], "rescue": row["rescue"]})
+            choice = {"choice": row["choice"]} if "choice" in row else {}  # the row "chosen"'s validation
+            recovery_rows.append({**seed_row, "method": row["method"], "rescue": row["rescue"], **choice})
     return rows, recovery_rows
 
 

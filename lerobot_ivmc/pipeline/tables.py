@@ -24,7 +24,14 @@ METHOD_LABELS = {
         "BVMC + reach on the frame head, carried to the believed goal and let go (beyond the paper, no task "
         "knowledge)"
     ),
+    "reach_push": "BVMC + reach, pushed to the believed goal (beyond the paper, no task knowledge)",
+    "reach_push_frame": (
+        "BVMC + reach on the frame head, pushed to the believed goal (beyond the paper, no task knowledge)"
+    ),
     "chosen": "BVMC + the mode that knows no task chosen on validation scenes",
+    "chosen_over_seeds": (
+        "BVMC + the mode that knows no task chosen once, on every training seed's validation scenes together"
+    ),
 }
 # A row `<row>_<trigger>` (`config.TRIGGER_VARIANTS`) is labelled as its row with its trigger.
 TRIGGER_LABELS = {
@@ -91,8 +98,9 @@ def pooled_rescue_table(pooled: list[dict]) -> str:
         "|---|---|---|---|---|---|---|",
     ]
     for entry in pooled:
+        chosen = f": {entry['chosen_mode']}" if "chosen_mode" in entry else ""
         lines.append(
-            f"| {row_label(entry['method'])} | {entry['num_fc_layers']} | "
+            f"| {row_label(entry['method'])}{chosen} | {entry['num_fc_layers']} | "
             f"{', '.join(map(str, entry['train_seeds']))} | {rescue_cells(entry)} | {entry['exact_p']:.3f} |"
         )
     return "\n".join(lines) + "\n"

@@ -242,7 +242,8 @@ class ReachSettings:
             the frame position head on each frame alone (no memory to carry a false belief; a policy
             trained with it).
         grasp: after arriving above the object, descend to its believed centre and close the fingers before
-            handing back (false: hand back above it with open fingers, for an object the task never grasps).
+            handing back (false: hand back above it with open fingers, for an object the task never grasps;
+            with `push`, the push takes the grasp's place).
         grasp_tries: with `grasp`, grasps tried while the fingers close on nothing: the first at the
             believed centre, each later one `search_radius` from it in another direction.
         search_radius: metres from the believed centre of the later grasps.
@@ -253,14 +254,20 @@ class ReachSettings:
             fires), carry the object to the goal the policy believed on its `goal_steps` least uncertain
             steps (the goal head: where the object ends in the demos) and hold it there, then hand back
             with a fresh memory (false: hand back after the grasp). Needs a policy with the goal head.
-        goal_steps: with `carry`, the least uncertain normal steps whose goal beliefs are averaged.
+        goal_steps: with `carry` or `push`, the least uncertain normal steps whose goal beliefs are averaged.
         release: with `carry`, set the object down 2 cm above the goal and open the fingers (for a task
             that ends with the object let go; false: hold it at the goal).
-        goal: with `carry`, which head the goal beliefs come from: "memory", the goal head on the memory;
-            "frame", the frame position head's goal reading of each frame (a policy trained with it).
+        goal: with `carry` or `push`, which head the goal beliefs come from: "memory", the goal head on the
+            memory; "frame", the frame position head's goal reading of each frame (a policy trained with it).
         max_held_offset: with `carry`, the most metres the believed centre of a held object may lie from
             the grip point; a longer believed offset is shortened to it (the beliefs drift most in the
             failures the carry rescues).
+        push: at the object, push it instead of grasping it (for an object the task moves without lifting
+            it): with closed fingers, from behind it on the line from the goal the policy believed on its
+            `goal_steps` least uncertain steps, along that line until the object head believes the object
+            there; up to `push_legs` legs, each planned from where the object is then believed; then the
+            policy again with a fresh memory. Needs a policy with the goal head.
+        push_legs: with `push`, the most legs of one recovery.
     """
 
     belief: str = "look"
@@ -277,6 +284,8 @@ class ReachSettings:
     release: bool = False
     goal: str = "memory"
     max_held_offset: float = MAX_HELD_OFFSET
+    push: bool = False
+    push_legs: int = 2
 
     def __post_init__(self) -> None:
         check_choice("reach.belief", self.belief, REACH_BELIEF)
@@ -296,7 +305,12 @@ class ReachSettings:
                 "--recovery.reach.carry=true carries the object the grasp holds: drop "
                 "--recovery.reach.grasp=false or the carry."
             )
-        for name in ("belief_steps", "steps", "grasp_tries", "goal_steps"):
+        if self.push and self.carry:
+            raise ValueError(
+                "--recovery.reach.push=true pushes the object to the goal, --recovery.reach.carry=true "
+                "grasps and carries it there: choose one."
+            )
+        for name in ("belief_steps", "steps", "grasp_tries", "goal_steps", "push_legs"):
             if getattr(self, name) < 1:
                 raise ValueError(f"--recovery.reach.{name} must be >= 1, got {getattr(self, name)}.")
         for name in ("search_radius", "hover"):

@@ -172,3 +172,58 @@ def test_a_regime_study_pools_with_plain_studies_of_its_chosen_demos() -> None:
         )
 
     assert chosen == plain(500) and chosen != plain(250)
+
+
+def chosen_row(seed: int, mode: str, validation: dict[str, tuple[int, int]], failures: int) -> dict:
+    """A seed's row "chosen" (its test rescue is `mode`'s) with its candidates' validation rescued / lost."""
+    records = {m: rescue(40, *counts) for m, counts in validation.items()}
+    row = seed_row(seed, "BVMC", 80.0, "chosen", rescue(failures, 0, 0))
+    return {**row, "choice": {"chosen_mode": mode, "validation": records}}
+
+
+def test_one_choice_over_the_seeds_sums_their_validation_rescue_and_takes_that_mode_s_test_rows() -> None:
+    """Each seed's choice went by a margin of one or two validation rescues (retry 13 / 3 against reach
+    12 / 0 on one seed, 15 / 0 against 13 / 1 on the other); summed over both, retry rescues 25 net against
+    24, and the row "chosen over the seeds" reports retry's test rows on both seeds."""
+    first = {"retry": (13, 3), "reach_place_frame": (12, 0), "none": (0, 0)}
+    second = {"retry": (15, 0), "reach_place_frame": (13, 1), "none": (0, 0)}
+    study = {
+        "task": "push",
+        "preset": "lite",
+        "complete": True,
+        "per_fc": {"1": {}},
+        "setup": SETUP,
+        "training_seeds": {
+            "rows": [seed_row(1000, "BVMC", 81.0, "none"), seed_row(2000, "BVMC", 70.0, "none")],
+            "recovery_rows": [
+                chosen_row(1000, "reach_place_frame", first, 19),
+                chosen_row(2000, "retry", second, 30),
+                seed_row(1000, "BVMC", 90.0, "retry", rescue(19, 11, 2)),
+                seed_row(2000, "BVMC", 76.0, "retry", rescue(30, 7, 1)),
+                seed_row(1000, "BVMC", 85.0, "reach_place_frame", rescue(19, 4, 0)),
+                seed_row(2000, "BVMC", 79.0, "reach_place_frame", rescue(30, 10, 1)),
+            ],
+        },
+        "rows": [],
+    }
+    third = one_seed_study(3000, 70.0, 72.0, 80.0, rescue(28, 9, 1))
+    third_choice = {"retry": (1, 2), "reach_place_frame": (0, 1), "none": (0, 0)}
+    third["rows"] += [
+        chosen_row(3000, "none", third_choice, 28),
+        seed_row(3000, "BVMC", 79.0, "retry", rescue(28, 9, 1)),
+        seed_row(3000, "BVMC", 72.0, "reach_place_frame", rescue(28, 0, 0)),
+    ]
+    pooled = pool_studies({"a": study, "b": third})[0]["training_seeds"]["pooled_rescue"]
+    over = {e["method"]: e for e in pooled}["chosen_over_seeds"]
+    assert over["chosen_mode"] == "retry" and over["train_seeds"] == [1000, 2000, 3000]
+    validation = over["validation"]
+    assert (validation["retry"]["rescued"], validation["retry"]["lost"]) == (29, 5)  # 24 net
+    assert (validation["reach_place_frame"]["rescued"], validation["reach_place_frame"]["lost"]) == (25, 2)
+    assert (over["failures"], over["rescued"], over["lost"]) == (77, 27, 4)  # retry's test rows
+    assert [e["method"] for e in pooled].index("chosen_over_seeds") == [e["method"] for e in pooled].index(
+        "chosen"
+    ) + 1
+    # A seed without the chosen mode's test row: no such row, rather than one made of other modes' rows.
+    third["rows"] = [r for r in third["rows"] if r.get("method") != "retry"]
+    pooled = pool_studies({"a": study, "b": third})[0]["training_seeds"]["pooled_rescue"]
+    assert "chosen_over_seeds" not in {e["method"] for e in pooled}

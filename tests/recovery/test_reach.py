@@ -44,6 +44,7 @@ def stub_controller(
         embodiment=FAKE,
         step=0,
         traces=[trace],
+        task_traits=None,
     )
 
 
@@ -253,3 +254,62 @@ def test_reach_frame_readings_need_the_frame_position_head() -> None:
         ReachSettings(max_held_offset=-0.1)
     with pytest.raises(ValueError, match="--recovery.reach.goal must be one of"):
         ReachSettings(goal="later")
+
+
+def run_push(settings: ReachSettings, obj, goal, steps: int = 300) -> tuple[list, np.ndarray, list, list]:
+    """Fire `reach` with `push` at the first step on the synthetic robot in a world whose object (a disc
+    of 3 cm radius, its centre at the grip point's height) is pushed by the grip point and is always
+    believed where it is; return the manoeuvres, where the object ends, the grip path and the commands."""
+    strategy = make_strategy(RecoveryConfig(mode="reach", reach=settings))
+    start, obj = np.array([0.0, 0.0, 0.2]), np.asarray(obj, dtype=np.float64).copy()
+    ctx = stub_controller(obj, start, np.asarray(goal, dtype=np.float64))
+    beliefs = ctx.policy.net.decode()
+    ctx.policy.net.decode = lambda *args, **kwargs: (*beliefs[:3], torch.as_tensor(obj)[None], beliefs[4])
+    strategy.start_batch(1)
+    grip, fingers = start.copy(), np.array([1.0])
+    strategy.observe(ctx, SimpleNamespace(embedding=None), np.zeros(1), np.ones(1, dtype=bool))
+    manoeuvre, _ = strategy.begin(ctx, 0, grip, fingers[None])
+    manoeuvres, path, commands = [manoeuvre], [], []
+    for _ in range(steps):
+        manoeuvre.advance(grip)
+        if manoeuvre.finished:
+            manoeuvre = strategy.follow(ctx, 0, manoeuvre, grip, fingers[None])
+            if manoeuvre is None:
+                break
+            manoeuvres.append(manoeuvre)
+            continue
+        strategy.observe(ctx, SimpleNamespace(embedding=None), np.zeros(1), np.zeros(1, dtype=bool))
+        action = manoeuvre.act(grip, lambda: None)
+        grip = grip + action[:3] * FAKE.metres_per_action_unit
+        grip[2] = max(grip[2], TABLE)
+        gap = obj[:2] - grip[:2]
+        if grip[2] < obj[2] + 0.01 and np.linalg.norm(gap) < 0.03:  # the fingers push the disc ahead
+            obj[:2] = grip[:2] + 0.03 * gap / np.linalg.norm(gap)
+        path.append(grip.copy())
+        commands.append(float(action[3]))
+    return manoeuvres, obj, path, commands
+
+
+@pytest.mark.parametrize("goal", [[-0.1, 0.2, 0.03], [0.25, -0.05, 0.03]])
+def test_reach_push_pushes_the_object_onto_the_believed_goal_with_closed_fingers(goal) -> None:
+    """With `push`, after the look the closed fingers come down behind the object on the line from the
+    goal and push it along that line until it is believed on the goal, then hand back."""
+    obj = np.array([0.1, 0.05, 0.03])
+    manoeuvres, pushed, path, commands = run_push(ReachSettings(push=True), obj, goal)
+    kinds = [type(m).__name__ for m in manoeuvres]
+    assert kinds[:2] == ["ToStart", "Look"] and set(kinds[2:]) == {"PushAlongBelief"} and len(kinds) <= 4
+    np.testing.assert_allclose(pushed[:2], np.asarray(goal)[:2], atol=0.015)
+    pushing = commands[commands.index(FAKE.gripper_close) :]
+    assert set(pushing) == {FAKE.gripper_close}  # closed from the first push step to the hand-back
+    assert path[-1][2] > obj[2] + 0.04  # lifted off the object before handing back
+
+
+def test_reach_push_leaves_an_object_believed_on_the_goal_and_needs_the_goal_head() -> None:
+    obj = np.array([0.1, 0.05, 0.03])
+    manoeuvres, pushed, _, _ = run_push(ReachSettings(push=True), obj, obj + [0.005, 0.0, 0.0])
+    assert len(manoeuvres) == 3 and np.linalg.norm(pushed[:2] - obj[:2]) < 0.01  # one leg, no push needed
+    strategy = make_strategy(RecoveryConfig(mode="reach", reach=ReachSettings(push=True)))
+    with pytest.raises(ValueError, match="reach.push=true takes the object to the goal"):
+        strategy.check(stub_controller(np.zeros(3), np.zeros(3)).policy, IDENTITY_STATS)
+    with pytest.raises(ValueError, match="choose one"):
+        ReachSettings(push=True, carry=True)

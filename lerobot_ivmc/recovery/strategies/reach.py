@@ -6,20 +6,32 @@ then believes the object, descend and close on it (`grasp`), trying points aroun
 close on nothing; then hand back to the policy with a fresh memory. With `carry`, a grasp that holds (or
 a hand that holds the object when the trigger fires) is followed by a carry to where the policy believed
 the goal on its least uncertain steps (the goal head, learned from where the object ends in the demos).
+With `push` (an object the task moves without lifting it), the closed fingers push the object along the
+line from it to that goal until the object head believes it there (`PushAlongBelief`).
 `object` and `goal` say which head the beliefs come from: the memory's, or the frame position head's
 reading of each frame alone."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
 from torch import Tensor
 
+from lerobot_ivmc.envs.embodiment import Embodiment
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy, MCPrediction
 from lerobot_ivmc.recovery.anchor import BeliefAnchor, carry_to_goal
 from lerobot_ivmc.recovery.config import RecoveryConfig
-from lerobot_ivmc.recovery.manoeuvres import REACH, Manoeuvre, Stop, WaypointPath, above
+from lerobot_ivmc.recovery.manoeuvres import (
+    PUSH_TO_GOAL,
+    REACH,
+    Manoeuvre,
+    MemoryChange,
+    Stop,
+    WaypointPath,
+    above,
+)
 from lerobot_ivmc.recovery.strategies.base import GOAL_POSITION, OBJECT_POSITION, RecoveryStrategy
 from lerobot_ivmc.recovery.strategies.registry import register_strategy
 
@@ -28,6 +40,14 @@ if TYPE_CHECKING:
 
 # The directions (world x, y) of the grasps tried after the first, in turn.
 SEARCH_DIRECTIONS = np.array([[1, 0], [-1, 0], [0, 1], [0, -1], [1, 1], [-1, -1], [1, -1], [-1, 1]], float)
+# A push starts with the grip point this far (metres) behind the believed object's centre, on the line from
+# the goal through it: clear of an object of up to about 12 cm across, whatever its size.
+PUSH_BACKOFF = 0.08
+# Largest grip-point move per step while pushing (metres).
+PUSH_SPEED = 0.02
+# A push ends once the object is believed within this distance (metres) of the goal along the push, and a
+# recovery ends once it is believed this close to the goal.
+PUSH_TOLERANCE = 0.01
 
 
 class ToStart(WaypointPath):
@@ -45,6 +65,102 @@ class Grasp(WaypointPath):
         super().__init__(*args, **kwargs)
         self.try_index = try_index
         self.obj = obj
+
+
+class PushAlongBelief(Manoeuvre):
+    """One leg of reach's push, with closed fingers: rise, move above the point `PUSH_BACKOFF` behind the
+    believed object on the line from `goal` through it, descend to the push height, then move along that
+    line (at most `PUSH_SPEED` a step) until the object is believed within `PUSH_TOLERANCE` of the goal along
+    it, or the grip point has passed the goal; rise `hover` and hand back with a fresh memory.
+
+    Args:
+        grip: the grip point now, (3,).
+        obj: the believed object, (3,); its height is the push height.
+        goal: the believed goal, (3,).
+        believed: the object where the policy believes it at the current step, (3,) (read every step).
+        legs_left: further legs the strategy may plan after this one.
+        hover: metres above the push height to travel at.
+        steps: most steps of the leg.
+        tolerance: metres from a waypoint that count as reached.
+        embodiment: the robot (its action scale and gripper commands).
+    """
+
+    phase = PUSH_TO_GOAL
+
+    def __init__(
+        self,
+        grip: np.ndarray,
+        obj: np.ndarray,
+        goal: np.ndarray,
+        believed: Callable[[], np.ndarray],
+        legs_left: int,
+        hover: float,
+        steps: int,
+        tolerance: float,
+        embodiment: Embodiment,
+    ):
+        self.goal = np.asarray(goal, dtype=np.float64)
+        line = self.goal[:2] - obj[:2]
+        self.direction = line / max(float(np.linalg.norm(line)), 1e-9)
+        self.z = float(obj[2])
+        self.start = np.array([*(obj[:2] - PUSH_BACKOFF * self.direction), self.z])
+        self.target = np.array([self.goal[0], self.goal[1], self.z])
+        self.believed = believed
+        self.legs_left = legs_left
+        self.embodiment = embodiment
+        self.hover = hover
+        close = embodiment.gripper_close
+        lift = np.array([0.0, 0.0, hover])
+        stops = [
+            Stop(above(grip, self.z + hover), close),
+            Stop(self.start + lift, close),
+            Stop(self.start, close),
+        ]
+        self.path: WaypointPath | None = WaypointPath(
+            stops, steps, tolerance, embodiment, PUSH_TO_GOAL, self.start
+        )
+        self.lift: WaypointPath | None = None
+        self.last_grip = np.asarray(grip, dtype=np.float64).copy()
+        self.left = np.inf
+        self.steps_left = steps
+        self.finished = False
+
+    def left_to_push(self, grip: np.ndarray) -> float:
+        """Metres the object is believed short of the goal along the push. The belief is of the frame
+        before the last move, so the grip point's advance since is taken off (the object moves with it)."""
+        left = float(np.dot(self.goal[:2] - self.believed()[:2], self.direction))
+        return left - float(np.dot(grip[:2] - self.last_grip[:2], self.direction))
+
+    def advance(self, grip: np.ndarray) -> MemoryChange | None:
+        if self.path is not None:  # the way to the start of the push
+            self.path.advance(grip)
+            if self.path.finished:
+                self.path = None
+        elif self.lift is None:
+            self.left = self.left_to_push(grip)
+            passed = float(np.dot(grip[:2] - self.goal[:2], self.direction)) > 0  # the fingers past the goal
+            if self.left <= PUSH_TOLERANCE or passed or self.steps_left <= 0:
+                up = Stop(grip + np.array([0.0, 0.0, self.hover]), self.embodiment.gripper_close)
+                self.lift = WaypointPath(
+                    [up], max(self.steps_left, 1), 0.01, self.embodiment, PUSH_TO_GOAL, up.position
+                )
+        self.last_grip = grip.copy()
+        if self.lift is not None:
+            self.lift.advance(grip)
+            if self.lift.finished:
+                self.finished = True
+                return MemoryChange(None)
+        return None
+
+    def act(self, grip: np.ndarray, min_unc_action: Callable[[], np.ndarray]) -> np.ndarray:
+        self.steps_left -= 1
+        if self.path is not None:
+            return self.path.act(grip, min_unc_action)
+        if self.lift is not None:
+            return self.lift.act(grip, min_unc_action)
+        stride = min(PUSH_SPEED, max(self.left, 0.0))  # no farther than the object is believed to need
+        ahead = np.array([*(grip[:2] + stride * self.direction), self.z])
+        return self.embodiment.move_towards(grip, ahead, self.embodiment.gripper_close)
 
 
 @register_strategy("reach")
@@ -69,10 +185,12 @@ class ReachRecovery(RecoveryStrategy):
                 "dataset with observation.environment_state (auxiliary heads); use --recovery.mode=retry."
             )
         self.check_frame_readings(policy, "reach", self.settings.reach)
-        if self.settings.reach.carry and not getattr(policy.config, "goal_head", False):
+        reach = self.settings.reach
+        if (reach.carry or reach.push) and not getattr(policy.config, "goal_head", False):
+            flag = "carry" if reach.carry else "push"
             raise ValueError(
-                "--recovery.reach.carry=true carries the object to the goal the policy believes: it needs a "
-                "policy trained with --policy.goal_head=true; drop the carry for this one."
+                f"--recovery.reach.{flag}=true takes the object to the goal the policy believes: it needs a "
+                f"policy trained with --policy.goal_head=true; drop the {flag} for this one."
             )
         if state_stats is None:
             raise ValueError("--recovery.mode=reach needs the statistics of observation.state (state_stats).")
@@ -94,7 +212,7 @@ class ReachRecovery(RecoveryStrategy):
         """Read where the object head believes the object (metres); add up the beliefs of the episode's
         first steps ("start") or of the steps still at the start pose after a look's memory reset; with
         `carry`, record each normal step's believed goal with its uncertainty."""
-        carry = self.settings.reach.carry
+        carry = self.settings.reach.carry or self.settings.reach.push  # both go to the anchored goal
         outputs = ctx.policy.net.decode(prediction.embedding, stochastic=False, with_goal=carry)
         believed = outputs[3]
         if self.settings.reach.object == "frame":  # this frame's reading, without the memory
@@ -155,10 +273,34 @@ class ReachRecovery(RecoveryStrategy):
         obj = self.believed_object(row)
         over = above(obj, float(ctx.initial_grip[row][2]))
         stops = [Stop(above(grip, over[2]), robot.gripper_open), Stop(over, robot.gripper_open)]
+        if reach.push:
+            return self.push(ctx, row, grip, obj, reach.push_legs - 1), {"target": obj.round(4).tolist()}
         if reach.grasp:
             return self.grasp(ctx, 0, obj, stops), {"target": obj.round(4).tolist()}
         path = WaypointPath(stops, reach.steps, self.settings.move_tolerance, robot, REACH, obj)
         return path, {"target": obj.round(4).tolist()}
+
+    def push(
+        self, ctx: IntrospectiveController, row: int, grip: np.ndarray, obj: np.ndarray, legs_left: int
+    ) -> PushAlongBelief:
+        """A push leg of the object believed at `obj` toward the anchored goal, at the object's rest height
+        where the task's traits give it (else the believed height)."""
+        traits = ctx.task_traits
+        obj = obj.copy()
+        if traits is not None and np.isfinite(traits.rest_height):
+            obj[2] = traits.rest_height
+        reach = self.settings.reach
+        return PushAlongBelief(
+            grip,
+            obj,
+            self.goals[row].goal,
+            lambda: self.beliefs_now[row],
+            legs_left,
+            reach.hover,
+            reach.steps,
+            self.settings.move_tolerance,
+            ctx.embodiment,
+        )
 
     def grasp(
         self, ctx: IntrospectiveController, try_index: int, obj: np.ndarray, stops: list[Stop]
@@ -191,6 +333,12 @@ class ReachRecovery(RecoveryStrategy):
             manoeuvre, event_extra = self.reach(ctx, row, grip)
             ctx.traces[-1].events[row][-1].update(event_extra)
             return manoeuvre
+        if isinstance(finished, PushAlongBelief):  # another leg while the object is believed off the goal
+            obj = self.beliefs_now[row]
+            off = float(np.linalg.norm(finished.goal[:2] - obj[:2]))
+            if finished.legs_left == 0 or off <= PUSH_TOLERANCE:
+                return None
+            return self.push(ctx, row, grip, obj, finished.legs_left - 1)
         if not isinstance(finished, Grasp):
             return None
         if robot.holds(fingers[row]):  # the grasp held: carry what it grasped at its point
