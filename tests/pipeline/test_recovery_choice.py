@@ -5,13 +5,13 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from lerobot_ivmc.pipeline.config import TRIGGER_VARIANTS
+from lerobot_ivmc.pipeline.config import CHOICE_ROWS, STUDY_ROWS, TRIGGER_VARIANTS
 from lerobot_ivmc.pipeline.recovery_choice import choose_mode
 from lerobot_ivmc.pipeline.results import table_rows, training_seed_rows
 from lerobot_ivmc.pipeline.seed_pool import spread_over_seeds
 from lerobot_ivmc.pipeline.stages import build_stages
 from lerobot_ivmc.pipeline.study import parse_config
-from lerobot_ivmc.pipeline.tables import TRIGGER_LABELS, pooled_rescue_table
+from lerobot_ivmc.pipeline.tables import TRIGGER_LABELS, pooled_rescue_table, row_label
 
 
 def record(rescued: int, lost: int) -> dict:
@@ -222,6 +222,7 @@ def test_trigger_rows_of_a_study_are_tabled_as_their_row_with_their_trigger(tmp_
     labels = {row["method"]: row["label"] for row in table_rows(cfg, stages, [1])}
     assert labels["retry_grasp_miss"] == f"{labels['retry']}, with the missed grasp"
     assert set(TRIGGER_LABELS) == set(TRIGGER_VARIANTS)  # every trigger of a study has its label
+    assert all(row_label(row) for row in (*STUDY_ROWS, *CHOICE_ROWS))  # and every row
     _, pooled = spread_over_seeds([], recovery_rows)
     methods = [entry["method"] for entry in pooled]
     assert methods.index("retry_grasp_miss") == methods.index("retry") + 1
