@@ -35,8 +35,8 @@ CONTROL_ROWS = {"anchor_control": ("anchor", ("--recovery.threshold=0",))}
 CARRY, RELEASE = "--recovery.reach.carry=true", "--recovery.reach.release=true"
 FRAME_READINGS = ("--recovery.reach.object=frame", "--recovery.reach.goal=frame")
 ON_FRAMES = (*FRAME_READINGS, "--recovery.reach.max_held_offset=0.5")
-# reach's push (an object moved without lifting it) to the believed goal, on the memory's heads or on the
-# frame position head's readings.
+# reach's push (an object moved without lifting it) to the believed goal: on the memory's heads, on the frame
+# position head's readings, or the object on the frame head's and the goal on the memory's.
 PUSH = "--recovery.reach.push=true"
 VARIANT_ROWS = {
     "reach_carry": ("reach", (CARRY,)),
@@ -45,6 +45,7 @@ VARIANT_ROWS = {
     "reach_place_frame": ("reach", (CARRY, RELEASE, *ON_FRAMES)),
     "reach_push": ("reach", (PUSH,)),
     "reach_push_frame": ("reach", (PUSH, *FRAME_READINGS)),
+    "reach_push_frame_object": ("reach", (PUSH, FRAME_READINGS[0])),
 }
 # Triggers beyond the uncertainty score (docs/recovery.md), added to a row that knows no task as
 # `<row>_<trigger>`: the deadline the threshold record holds, a missed grasp (the fingers closed on nothing

@@ -28,6 +28,10 @@ METHOD_LABELS = {
     "reach_push_frame": (
         "BVMC + reach on the frame head, pushed to the believed goal (beyond the paper, no task knowledge)"
     ),
+    "reach_push_frame_object": (
+        "BVMC + reach, the object on the frame head, pushed to the believed goal (beyond the paper, no task "
+        "knowledge)"
+    ),
     "chosen": "BVMC + the mode that knows no task chosen on validation scenes",
     "chosen_over_seeds": (
         "BVMC + the mode that knows no task chosen once, on every training seed's validation scenes together"
