@@ -619,7 +619,14 @@ def strategy_settings(mode: str | None, task: str | None) -> dict:
         # (the newer fields only where they act, so the recorded rows keep their fingerprints)
         if not reach["carry"]:
             del reach["carry"], reach["goal_steps"], reach["release"]
-        for name, first in (("object", "memory"), ("goal", "memory"), ("max_held_offset", MAX_HELD_OFFSET)):
+        del reach["push"]  # (a row's own flag: its rows' argv hold it)
+        firsts = (
+            ("object", "memory"),
+            ("goal", "memory"),
+            ("max_held_offset", MAX_HELD_OFFSET),
+            ("push_legs", 2),
+        )
+        for name, first in firsts:
             if reach[name] == first:
                 del reach[name]
         return {"reach": reach}

@@ -205,3 +205,19 @@ def test_a_study_without_vmc_is_the_whole_study_less_vmc_s_stages(monkeypatch: p
     vmc = [name for name in whole if name.startswith(("train_vmc", "check_vmc", "eval_vmc"))]
     assert len(vmc) == 6
     assert without == {name: found for name, found in whole.items() if name not in vmc}
+
+
+def test_reach_s_push_leaves_the_recorded_reach_rows_fingerprints() -> None:
+    """reach's push came after the MetaWorld studies' reach rows ran: its fields at their defaults are not
+    among the settings those rows' fingerprints hold (a push row's argv holds its own flag)."""
+    recorded = [
+        "belief",
+        "belief_steps",
+        "grasp",
+        "grasp_tries",
+        "hover",
+        "search_radius",
+        "settle_steps",
+        "steps",
+    ]
+    assert sorted(stages_module.strategy_settings("reach", None)["reach"]) == recorded
