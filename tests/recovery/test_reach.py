@@ -3,6 +3,7 @@ search, its settings, and in a real env that it reads nothing of the simulator's
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from types import SimpleNamespace
 
 import numpy as np
@@ -48,16 +49,13 @@ def stub_controller(
     )
 
 
-def run_reach(settings: ReachSettings, belief, obj, steps: int = 400, goal=None) -> tuple[list, list, list]:
-    """Fire `reach` at the first step on the synthetic robot and world (an object at `obj` is held when
-    the fingers close within 1 cm of it); return the manoeuvres in order, the grip path and the gripper
-    commands, until it hands back."""
-    strategy = make_strategy(RecoveryConfig(mode="reach", reach=settings))
-    start, obj = np.array([0.0, 0.0, 0.2]), np.asarray(obj, dtype=np.float64)
-    goal = None if goal is None else np.asarray(goal, dtype=np.float64)
-    ctx = stub_controller(np.asarray(belief, dtype=np.float64), start, goal)
+def drive(strategy, ctx, steps: int, world: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> tuple:
+    """Fire `strategy` at the first step on the synthetic robot, from `ctx`'s start grip position with open
+    fingers, until it hands back (at most `steps` steps); `world(grip, action)` moves the world after each
+    action and returns the finger reading. Returns the manoeuvres in order, the grip path and the gripper
+    commands."""
     strategy.start_batch(1)
-    grip, fingers, closed = start.copy(), np.array([1.0]), False
+    grip, fingers = ctx.initial_grip[0].copy(), np.array([1.0])
     strategy.observe(ctx, SimpleNamespace(embedding=None), np.zeros(1), np.ones(1, dtype=bool))
     manoeuvre, _ = strategy.begin(ctx, 0, grip, fingers[None])
     manoeuvres, path, commands = [manoeuvre], [], []
@@ -74,14 +72,31 @@ def run_reach(settings: ReachSettings, belief, obj, steps: int = 400, goal=None)
         action = manoeuvre.act(grip, lambda: None)
         grip = grip + action[:3] * FAKE.metres_per_action_unit
         grip[2] = max(grip[2], TABLE)
-        if action[3] == FAKE.gripper_close and not closed:  # the fingers shut: on the object or on nothing
-            closed = True
-            fingers = np.array([0.5 if np.linalg.norm(grip[:2] - obj[:2]) < 0.01 else 0.0])
-        elif action[3] == FAKE.gripper_open:
-            closed, fingers = False, np.array([1.0])
+        fingers = world(grip, action)
         path.append(grip.copy())
         commands.append(float(action[3]))
     return manoeuvres, path, commands
+
+
+def run_reach(settings: ReachSettings, belief, obj, steps: int = 400, goal=None) -> tuple[list, list, list]:
+    """Fire `reach` at the first step on the synthetic robot and world (an object at `obj` is held when
+    the fingers close within 1 cm of it); return the manoeuvres in order, the grip path and the gripper
+    commands, until it hands back."""
+    strategy = make_strategy(RecoveryConfig(mode="reach", reach=settings))
+    start, obj = np.array([0.0, 0.0, 0.2]), np.asarray(obj, dtype=np.float64)
+    goal = None if goal is None else np.asarray(goal, dtype=np.float64)
+    ctx = stub_controller(np.asarray(belief, dtype=np.float64), start, goal)
+    hand = {"closed": False, "fingers": np.array([1.0])}
+
+    def world(grip: np.ndarray, action: np.ndarray) -> np.ndarray:
+        if action[3] == FAKE.gripper_close and not hand["closed"]:  # shut: on the object or on nothing
+            hand["closed"] = True
+            hand["fingers"] = np.array([0.5 if np.linalg.norm(grip[:2] - obj[:2]) < 0.01 else 0.0])
+        elif action[3] == FAKE.gripper_open:
+            hand["closed"], hand["fingers"] = False, np.array([1.0])
+        return hand["fingers"]
+
+    return drive(strategy, ctx, steps, world)
 
 
 def test_reach_looks_from_the_start_then_grasps_around_the_belief_until_the_fingers_hold() -> None:
@@ -265,28 +280,14 @@ def run_push(settings: ReachSettings, obj, goal, steps: int = 300) -> tuple[list
     ctx = stub_controller(obj, start, np.asarray(goal, dtype=np.float64))
     beliefs = ctx.policy.net.decode()
     ctx.policy.net.decode = lambda *args, **kwargs: (*beliefs[:3], torch.as_tensor(obj)[None], beliefs[4])
-    strategy.start_batch(1)
-    grip, fingers = start.copy(), np.array([1.0])
-    strategy.observe(ctx, SimpleNamespace(embedding=None), np.zeros(1), np.ones(1, dtype=bool))
-    manoeuvre, _ = strategy.begin(ctx, 0, grip, fingers[None])
-    manoeuvres, path, commands = [manoeuvre], [], []
-    for _ in range(steps):
-        manoeuvre.advance(grip)
-        if manoeuvre.finished:
-            manoeuvre = strategy.follow(ctx, 0, manoeuvre, grip, fingers[None])
-            if manoeuvre is None:
-                break
-            manoeuvres.append(manoeuvre)
-            continue
-        strategy.observe(ctx, SimpleNamespace(embedding=None), np.zeros(1), np.zeros(1, dtype=bool))
-        action = manoeuvre.act(grip, lambda: None)
-        grip = grip + action[:3] * FAKE.metres_per_action_unit
-        grip[2] = max(grip[2], TABLE)
+
+    def world(grip: np.ndarray, action: np.ndarray) -> np.ndarray:
         gap = obj[:2] - grip[:2]
         if grip[2] < obj[2] + 0.01 and np.linalg.norm(gap) < 0.03:  # the fingers push the disc ahead
             obj[:2] = grip[:2] + 0.03 * gap / np.linalg.norm(gap)
-        path.append(grip.copy())
-        commands.append(float(action[3]))
+        return np.array([1.0])
+
+    manoeuvres, path, commands = drive(strategy, ctx, steps, world)
     return manoeuvres, obj, path, commands
 
 
