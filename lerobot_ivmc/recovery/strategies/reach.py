@@ -21,7 +21,7 @@ from torch import Tensor
 
 from lerobot_ivmc.envs.embodiment import Embodiment
 from lerobot_ivmc.policies.bvmc.modeling_bvmc import BVMCPolicy, MCPrediction
-from lerobot_ivmc.recovery.anchor import BeliefAnchor, carry_to_goal
+from lerobot_ivmc.recovery.anchor import BeliefAnchor, carry_to_goal, on_table
 from lerobot_ivmc.recovery.config import RecoveryConfig
 from lerobot_ivmc.recovery.manoeuvres import (
     PUSH_TO_GOAL,
@@ -103,21 +103,17 @@ class PushAlongBelief(Manoeuvre):
         line = self.goal[:2] - obj[:2]
         self.direction = line / max(float(np.linalg.norm(line)), 1e-9)
         self.z = float(obj[2])
-        self.start = np.array([*(obj[:2] - PUSH_BACKOFF * self.direction), self.z])
-        self.target = np.array([self.goal[0], self.goal[1], self.z])
+        start = np.array([*(obj[:2] - PUSH_BACKOFF * self.direction), self.z])
         self.believed = believed
         self.legs_left = legs_left
         self.embodiment = embodiment
         self.hover = hover
+        self.tolerance = tolerance
         close = embodiment.gripper_close
         lift = np.array([0.0, 0.0, hover])
-        stops = [
-            Stop(above(grip, self.z + hover), close),
-            Stop(self.start + lift, close),
-            Stop(self.start, close),
-        ]
+        stops = [Stop(above(grip, self.z + hover), close), Stop(start + lift, close), Stop(start, close)]
         self.path: WaypointPath | None = WaypointPath(
-            stops, steps, tolerance, embodiment, PUSH_TO_GOAL, self.start
+            stops, steps, tolerance, embodiment, PUSH_TO_GOAL, start
         )
         self.lift: WaypointPath | None = None
         self.last_grip = np.asarray(grip, dtype=np.float64).copy()
@@ -142,7 +138,7 @@ class PushAlongBelief(Manoeuvre):
             if self.left <= PUSH_TOLERANCE or passed or self.steps_left <= 0:
                 up = Stop(grip + np.array([0.0, 0.0, self.hover]), self.embodiment.gripper_close)
                 self.lift = WaypointPath(
-                    [up], max(self.steps_left, 1), 0.01, self.embodiment, PUSH_TO_GOAL, up.position
+                    [up], max(self.steps_left, 1), self.tolerance, self.embodiment, PUSH_TO_GOAL, up.position
                 )
         self.last_grip = grip.copy()
         if self.lift is not None:
@@ -285,14 +281,11 @@ class ReachRecovery(RecoveryStrategy):
     ) -> PushAlongBelief:
         """A push leg of the object believed at `obj` toward the anchored goal, at the object's rest height
         where the task's traits give it (else the believed height)."""
-        traits = ctx.task_traits
-        obj = obj.copy()
-        if traits is not None and np.isfinite(traits.rest_height):
-            obj[2] = traits.rest_height
+        rest_height = np.nan if ctx.task_traits is None else ctx.task_traits.rest_height
         reach = self.settings.reach
         return PushAlongBelief(
             grip,
-            obj,
+            on_table(obj, rest_height),
             self.goals[row].goal,
             lambda: self.beliefs_now[row],
             legs_left,
