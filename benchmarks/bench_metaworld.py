@@ -25,7 +25,7 @@ from lerobot.envs.metaworld import MetaworldEnv  # noqa: E402
 from lerobot_ivmc.datasets.collect import collect_demos  # noqa: E402
 from lerobot_ivmc.datasets.collect_config import CollectConfig  # noqa: E402
 from lerobot_ivmc.datasets.expert_attempts import attempt_seed  # noqa: E402
-from lerobot_ivmc.datasets.metaworld_attempts import run_scripted_episode  # noqa: E402
+from lerobot_ivmc.datasets.metaworld_attempts import run_scripted_episode, scripted_action  # noqa: E402
 from lerobot_ivmc.envs.coarse_meshes import coarse_meshes  # noqa: E402
 from lerobot_ivmc.envs.metaworld.env import SeededMetaworldEnv  # noqa: E402
 from lerobot_ivmc.envs.render_styles import RENDER_STYLES  # noqa: E402
@@ -81,7 +81,7 @@ def lean_difference(task: str, steps: int = 60) -> tuple[float, float, int, int]
         observation, _ = env.reset(seed=4)
         episode = [observation["pixels"]]
         for _ in range(steps):
-            action = np.clip(env.expert_policy.get_action(observation["environment_state"]), -1, 1)
+            action = scripted_action(env, observation["environment_state"])
             observation, *_ = env.step(action)
             episode.append(observation["pixels"])
         frames[style] = np.stack(episode).astype(int)

@@ -14,6 +14,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
 from lerobot_ivmc.datasets.expert_attempts import ActionNoise  # noqa: E402
+from lerobot_ivmc.datasets.metaworld_attempts import scripted_action  # noqa: E402
 from lerobot_ivmc.envs.metaworld import DEMO_EPISODE_STEPS  # noqa: E402
 from lerobot_ivmc.envs.metaworld.env import SeededMetaworldEnv  # noqa: E402
 from lerobot_ivmc.envs.metaworld.env_state import HAND_POSITION, OBJECT_POSITION  # noqa: E402
@@ -54,7 +55,7 @@ def coverage(task: str, style: str, episodes: int) -> tuple[float, dict[str, flo
                 ("goal", env.target_position),
             ):
                 inside[part].append(in_frame(data, camera_id, fovy, np.asarray(point)))
-            action = np.clip(env.expert_policy.get_action(state), -1, 1)
+            action = scripted_action(env, state)
             observation, *_ = env.step(noise(action))
     env.close()
     return fovy, {part: float(np.mean(values)) for part, values in inside.items()}

@@ -100,7 +100,7 @@ class CollectConfig:
         style = {} if self.render_style == LEGACY_RENDER_STYLE else {"render_style": self.render_style}
         return staging.normalise(
             {
-                **suite.expert_spec(self.action_noise),
+                **suite.expert_spec(self.action_noise, self.task),
                 **style,
                 "task": self.task,
                 "gym_id": suite.gym_id(self.task),

@@ -8,18 +8,15 @@ from pathlib import Path
 from lerobot_ivmc.datasets import staging
 from lerobot_ivmc.datasets.collect_config import CollectConfig
 from lerobot_ivmc.datasets.collection_record import spec_render_style
-from lerobot_ivmc.datasets.demo_suites import suite_of
+from lerobot_ivmc.datasets.demo_suites import EDITED_STATE, suite_of
 from lerobot_ivmc.datasets.root_lock import LOCK_FILE
 
 
 def resume_hint(cfg: CollectConfig, spec: dict) -> str:
     """How to continue an unfinished collection of `spec` in `cfg.root`, or drop it."""
     drop = f"to drop it, remove {cfg.root / staging.WORK_DIR}."
-    if recorded_before_the_hold(spec):
-        return (
-            "Its demos were recorded by the expert of before its hold once the task is done, which no "
-            f"command of this version records: {drop}"
-        )
+    if older_expert(spec) is not None:
+        return f"Its demos are {older_expert(spec)}, which no command of this version records: {drop}"
     args = f"--env.task={spec['task']} --env.split={spec['split']} --seed={spec['seed']}"
     args += f" --env.image_size={spec['image_size']}"
     args += f" --env.render_style={spec_render_style(spec)}"
@@ -34,9 +31,15 @@ def resume_hint(cfg: CollectConfig, spec: dict) -> str:
     )
 
 
-def recorded_before_the_hold(spec: dict) -> bool:
-    """A collection of before its expert held once the task was done (its spec does not name the hold)."""
-    return suite_of(spec["task"]).recorded_before_the_hold(spec)
+def older_expert(spec: dict) -> str | None:
+    """What a collection's demos are where an earlier version's expert recorded them (before its hold once
+    the task was done, or with the state MetaWorld's scripted policy edited), else None."""
+    suite = suite_of(spec["task"])
+    if suite.recorded_before_the_hold(spec):
+        return suite.before_hold
+    if suite.recorded_with_edited_state(spec):
+        return EDITED_STATE
+    return None
 
 
 def foreign_entries(root: Path, ours: set[str]) -> list[str]:
@@ -89,10 +92,10 @@ def prepare_root(cfg: CollectConfig) -> Path | None:
             raise ValueError(f"{root} holds a LeRobot dataset not made by lerobot-ivmc-collect; refusing.")
         collection = staging.read_json(info_path)
         diffs = staging.spec_differences(collection["spec"], wanted)
-        if diffs and recorded_before_the_hold(collection["spec"]):
+        if diffs and older_expert(collection["spec"]) is not None:
             raise ValueError(
-                f"{root} holds {suite_of(collection['spec']['task']).before_hold}; this version records the "
-                "hold. Keep that dataset and collect into a new --dataset.root."
+                f"{root} holds {older_expert(collection['spec'])}, which this version no longer records. "
+                "Keep that dataset and collect into a new --dataset.root."
             )
         if diffs:
             raise ValueError(f"{root} holds a dataset of another spec: {'; '.join(diffs)}.")

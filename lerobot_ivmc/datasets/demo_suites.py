@@ -15,6 +15,15 @@ from lerobot_ivmc.envs import metaworld as mw
 from lerobot_ivmc.envs.metaworld import env_state as mw_state
 from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE
 
+# The spec entry of a MetaWorld collection whose scripted policy edits the state it reads
+# (`mw.STATE_EDITING_POLICIES`): it reads a copy, so the demos record the state as the env gave it.
+STATE_COPY_KEY = "expert_reads_state_copy"  # True
+EDITED_STATE = (
+    "demos whose observation.environment_state is MetaWorld's state as the task's scripted policy edited it "
+    "in place (the object position shifted on the steps it acted; collected before the collector gave the "
+    "policy a copy)"
+)
+
 
 @dataclass(frozen=True)
 class DemoSuite:
@@ -51,12 +60,19 @@ class DemoSuite:
     before_hold: str
     aux_state_indices: tuple[int, ...] | None = None
 
-    def expert_spec(self, action_noise: float) -> dict:
-        """The collection spec's entries for the expert: its noise and its hold once the task is done."""
+    def expert_spec(self, action_noise: float, task: str) -> dict:
+        """The collection spec's entries for the expert: its noise, its hold once the task is done, and,
+        where MetaWorld's scripted policy edits the state it reads, that it reads a copy."""
         spec: dict = {"action_noise": action_noise} if action_noise > 0 else {}
         if action_noise > 0 or self.hold_without_noise:
             spec[self.hold_key] = "hold"
+        if self.name == "metaworld" and mw.expert_edits_state(task):
+            spec[STATE_COPY_KEY] = True
         return spec
+
+    def recorded_with_edited_state(self, spec: dict) -> bool:
+        """Whether a stored collection spec's demos recorded the state as the scripted policy edited it."""
+        return self.name == "metaworld" and mw.expert_edits_state(spec["task"]) and STATE_COPY_KEY not in spec
 
     def recorded_before_the_hold(self, spec: dict) -> bool:
         """Whether a stored collection spec was recorded before the expert held once its task was done."""

@@ -64,6 +64,12 @@ class MetaworldRecorder(Recorder):
         return attempt, True
 
 
+def scripted_action(env: SeededMetaworldEnv, state: np.ndarray) -> np.ndarray:
+    """(4,) the task's scripted action on the (39,) `state`, clipped to the action space. The policy gets a
+    copy: some edit the state they parse in place (`STATE_EDITING_POLICIES`)."""
+    return np.clip(env.expert_policy.get_action(state.copy()), -1.0, 1.0)
+
+
 def run_scripted_episode(
     env: SeededMetaworldEnv,
     seed: int,
@@ -85,7 +91,7 @@ def run_scripted_episode(
     for _ in range(episode_steps):
         acting = hold is None
         state = observation["environment_state"]
-        action = np.clip(env.expert_policy.get_action(state), -1.0, 1.0) if acting else hold
+        action = scripted_action(env, state) if acting else hold
         if on_step is not None:
             on_step(observation, action)
         observation, *_ = env.step(perturb(action) if perturb and acting else action)

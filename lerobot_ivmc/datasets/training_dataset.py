@@ -9,8 +9,8 @@ from pathlib import Path
 
 from lerobot.datasets import factory
 
-from lerobot_ivmc.datasets.collection_record import dataset_render_style, dataset_task
-from lerobot_ivmc.datasets.demo_suites import suite_of
+from lerobot_ivmc.datasets.collection_record import collection_spec, dataset_render_style, dataset_task
+from lerobot_ivmc.datasets.demo_suites import EDITED_STATE, suite_of
 from lerobot_ivmc.datasets.frame_cache import FrameCache
 from lerobot_ivmc.policies.legacy_configs import command_line_policy_fields, complete_legacy_config
 
@@ -41,6 +41,7 @@ def make_cached_dataset(cfg) -> FrameCache:
         cfg.policy.dataset_size = dataset.num_frames
     if hasattr(cfg.policy, "render_style"):
         record_render_style(cfg.policy, dataset_render_style(dataset.root))
+    check_environment_state(cfg.policy, dataset.root)
     task = dataset_task(dataset.root)
     if hasattr(cfg.policy, "trained_task"):
         cfg.policy.trained_task = task
@@ -48,6 +49,19 @@ def make_cached_dataset(cfg) -> FrameCache:
         indices = suite_of(task).aux_state_indices  # where the suite's state keeps the EE and the object
         cfg.policy.aux_state_indices = None if indices is None else list(indices)
     return dataset
+
+
+def check_environment_state(policy_cfg, root: Path) -> None:
+    """Refuse training the auxiliary heads (vmc, bvmc) on demos whose environment state MetaWorld's
+    scripted policy edited while they were recorded: the heads would learn its shifted object position."""
+    spec = collection_spec(root)
+    if spec is None or not hasattr(policy_cfg, "aux_state_indices"):
+        return
+    if suite_of(spec["task"]).recorded_with_edited_state(spec):
+        raise ValueError(
+            f"{root} holds {EDITED_STATE}; the auxiliary heads would learn that shift. Collect the demos "
+            "again with this version of lerobot-ivmc-collect, into a new --dataset.root."
+        )
 
 
 def record_render_style(policy_cfg, data_style: str | None) -> None:

@@ -23,6 +23,9 @@ MAX_EPISODE_STEPS = 500
 # a rollout (twice that, as the Fetch suite's 100-step demos and 200-step rollouts).
 DEMO_EPISODE_STEPS = 150
 ROLLOUT_EPISODE_STEPS = 300
+# The scripted policies that shift the object position they parse from the state in place (door-open's
+# handle x by -5 cm): given the observation itself, they edit what a demo records.
+STATE_EDITING_POLICIES = frozenset({"SawyerDoorCloseV3Policy", "SawyerDoorOpenV3Policy"})
 INSTALL_HINT = (
     "pip install 'lerobot_policy_ivmc[metaworld]' (metaworld==3.0.0, the version LeRobot 0.4.4 pins)"
 )
@@ -58,6 +61,11 @@ def scripted_policy_name(task: str) -> str:
             f"MetaWorld task {task!r} has no scripted policy in metaworld.policies to collect with."
         )
     return name
+
+
+def expert_edits_state(task: str) -> bool:
+    """Whether the task's scripted policy edits the state it is given (`STATE_EDITING_POLICIES`)."""
+    return scripted_policy_name(task) in STATE_EDITING_POLICIES
 
 
 def task_description(task: str) -> str:
