@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import shlex
+import sys
 from pathlib import Path
 
 from lerobot_ivmc.pipeline.recovery_choice import CHOSEN
@@ -70,7 +72,8 @@ def main() -> None:
     total = summed_rescue([{**t, "flagged": None} for t in per_task.values()])
     del total["flagged"]
     pooled = {"per_task": per_task, "all_tasks": total}
-    args.output.write_text(json.dumps({"pooled_chosen": pooled}, indent=1) + "\n")
+    command = shlex.join(["python", "-m", "diagnostics.metaworld_pool", *sys.argv[1:]])
+    args.output.write_text(json.dumps({"command": command, "pooled_chosen": pooled}, indent=1) + "\n")
     for name, task in per_task.items():
         print(f"{name}: {task['rescued']} / {task['lost']} of {task['failures']} ({task['rescue_rate']:.1%})")
     print(
