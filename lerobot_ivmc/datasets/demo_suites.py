@@ -15,9 +15,9 @@ from lerobot_ivmc.envs import metaworld as mw
 from lerobot_ivmc.envs.metaworld import env_state as mw_state
 from lerobot_ivmc.envs.render_styles import DEFAULT_RENDER_STYLE
 
-# The spec entry of a MetaWorld collection whose scripted policy edits the state it reads
+# The spec entry (True) of a MetaWorld collection whose scripted policy edits the state it reads
 # (`mw.STATE_EDITING_POLICIES`): it reads a copy, so the demos record the state as the env gave it.
-STATE_COPY_KEY = "expert_reads_state_copy"  # True
+STATE_COPY_KEY = "expert_reads_state_copy"
 EDITED_STATE = (
     "demos whose observation.environment_state is MetaWorld's state as the task's scripted policy edited it "
     "in place (the object position shifted on the steps it acted; collected before the collector gave the "
