@@ -15,8 +15,9 @@ from lerobot_ivmc.datasets.root_lock import LOCK_FILE
 def resume_hint(cfg: CollectConfig, spec: dict) -> str:
     """How to continue an unfinished collection of `spec` in `cfg.root`, or drop it."""
     drop = f"to drop it, remove {cfg.root / staging.WORK_DIR}."
-    if older_expert(spec) is not None:
-        return f"Its demos are {older_expert(spec)}, which no command of this version records: {drop}"
+    older = older_expert(spec)
+    if older is not None:
+        return f"Its demos are {older}, which no command of this version records: {drop}"
     args = f"--env.task={spec['task']} --env.split={spec['split']} --seed={spec['seed']}"
     args += f" --env.image_size={spec['image_size']}"
     args += f" --env.render_style={spec_render_style(spec)}"
@@ -92,9 +93,10 @@ def prepare_root(cfg: CollectConfig) -> Path | None:
             raise ValueError(f"{root} holds a LeRobot dataset not made by lerobot-ivmc-collect; refusing.")
         collection = staging.read_json(info_path)
         diffs = staging.spec_differences(collection["spec"], wanted)
-        if diffs and older_expert(collection["spec"]) is not None:
+        older = older_expert(collection["spec"])
+        if diffs and older is not None:
             raise ValueError(
-                f"{root} holds {older_expert(collection['spec'])}, which this version no longer records. "
+                f"{root} holds {older}, which this version no longer records. "
                 "Keep that dataset and collect into a new --dataset.root."
             )
         if diffs:

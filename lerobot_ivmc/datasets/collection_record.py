@@ -33,9 +33,3 @@ def dataset_render_style(root: Path) -> str | None:
     """The render style of the dataset in `root`, or None if lerobot-ivmc-collect did not make it."""
     spec = collection_spec(root)
     return None if spec is None else spec_render_style(spec)
-
-
-def dataset_task(root: Path) -> str | None:
-    """The ivmc task of the dataset in `root`, or None if lerobot-ivmc-collect did not make it."""
-    spec = collection_spec(root)
-    return None if spec is None else spec["task"]

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from lerobot.datasets import factory
 
-from lerobot_ivmc.datasets.collection_record import collection_spec, dataset_render_style, dataset_task
+from lerobot_ivmc.datasets.collection_record import collection_spec, spec_render_style
 from lerobot_ivmc.datasets.demo_suites import EDITED_STATE, suite_of
 from lerobot_ivmc.datasets.frame_cache import FrameCache
 from lerobot_ivmc.policies.legacy_configs import command_line_policy_fields, complete_legacy_config
@@ -39,10 +39,11 @@ def make_cached_dataset(cfg) -> FrameCache:
     )
     if hasattr(cfg.policy, "dataset_size") and cfg.policy.dataset_size is None:
         cfg.policy.dataset_size = dataset.num_frames
+    spec = collection_spec(dataset.root)  # None: a dataset lerobot-ivmc-collect did not make
     if hasattr(cfg.policy, "render_style"):
-        record_render_style(cfg.policy, dataset_render_style(dataset.root))
-    check_environment_state(cfg.policy, dataset.root)
-    task = dataset_task(dataset.root)
+        record_render_style(cfg.policy, None if spec is None else spec_render_style(spec))
+    check_environment_state(cfg.policy, spec, dataset.root)
+    task = None if spec is None else spec["task"]
     if hasattr(cfg.policy, "trained_task"):
         cfg.policy.trained_task = task
     if getattr(cfg.policy, "aux_state_indices", 0) is None and task is not None:
@@ -51,10 +52,10 @@ def make_cached_dataset(cfg) -> FrameCache:
     return dataset
 
 
-def check_environment_state(policy_cfg, root: Path) -> None:
-    """Refuse training the auxiliary heads (vmc, bvmc) on demos whose environment state MetaWorld's
-    scripted policy edited while they were recorded: the heads would learn its shifted object position."""
-    spec = collection_spec(root)
+def check_environment_state(policy_cfg, spec: dict | None, root: Path) -> None:
+    """Refuse training the auxiliary heads (vmc, bvmc) on the demos in `root` (collection spec `spec`) whose
+    environment state MetaWorld's scripted policy edited while they were recorded: the heads would learn its
+    shifted object position."""
     if spec is None or not hasattr(policy_cfg, "aux_state_indices"):
         return
     if suite_of(spec["task"]).recorded_with_edited_state(spec):

@@ -15,6 +15,7 @@ import lerobot_ivmc.envs.metaworld as mw
 from lerobot_ivmc.datasets import staging
 from lerobot_ivmc.datasets.collect_config import CollectConfig
 from lerobot_ivmc.datasets.collect_root import older_expert
+from lerobot_ivmc.datasets.collection_record import collection_spec
 from lerobot_ivmc.datasets.demo_suites import STATE_COPY_KEY
 from lerobot_ivmc.datasets.metaworld_attempts import run_scripted_episode
 from lerobot_ivmc.datasets.training_dataset import check_environment_state
@@ -70,7 +71,9 @@ def test_door_demos_recorded_before_the_copy_are_kept_apart(tmp_path: Path) -> N
     (root / staging.COLLECTION_INFO_PATH).parent.mkdir(parents=True)
     staging.write_json(root / staging.COLLECTION_INFO_PATH, {"spec": old, "num_episodes": 1})
     with pytest.raises(ValueError, match="edited it in place.*Collect the demos again.*new --dataset.root"):
-        check_environment_state(SimpleNamespace(aux_state_indices=None), root)
-    check_environment_state(SimpleNamespace(), root)  # a policy without auxiliary heads trains on them
+        check_environment_state(SimpleNamespace(aux_state_indices=None), collection_spec(root), root)
+    check_environment_state(
+        SimpleNamespace(), collection_spec(root), root
+    )  # a policy without auxiliary heads trains on them
     staging.write_json(root / staging.COLLECTION_INFO_PATH, {"spec": spec("door-open-v3"), "num_episodes": 1})
-    check_environment_state(SimpleNamespace(aux_state_indices=None), root)
+    check_environment_state(SimpleNamespace(aux_state_indices=None), collection_spec(root), root)
