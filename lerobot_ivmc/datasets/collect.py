@@ -69,6 +69,7 @@ def recorder_args(cfg: CollectConfig, episodes_dir: Path) -> tuple:
         cfg.action_noise,
         cfg.episode_steps,
         cfg.render_style,
+        cfg.expert_after_success,
     )
 
 

@@ -36,6 +36,9 @@ class CollectConfig:
             the rollouts' limit; MetaWorld: 150 of its 500). Success does not end a demo: once done, the
             expert holds (the Fetch expert its final pose against the noise, MetaWorld's scripted policy
             still, without noise), and the demo counts only if the task is done at its last step.
+        expert_after_success: what the expert does once the task is done: "hold" (the default, above), or
+            for MetaWorld "act": its scripted policy acts on to the demo's end, noise and all (so the demos
+            show it carrying on; left acting, it undoes some demos, which are then not kept).
         push_to_hub: publish the finished dataset with `LeRobotDataset.push_to_hub`.
         private: make the hub repository private.
         progress: show a progress bar.
@@ -53,6 +56,7 @@ class CollectConfig:
     seed: int = 0
     action_noise: float = 0.0
     episode_steps: int | None = None
+    expert_after_success: str = "hold"
     push_to_hub: bool = False
     private: bool = False
     progress: bool = True
@@ -74,6 +78,11 @@ class CollectConfig:
         suite.check_episode_steps("episode_steps", self.episode_steps)
         if not 0.0 <= self.action_noise <= 1.0:
             raise ValueError(f"action_noise must be in [0, 1] action units, got {self.action_noise}.")
+        if self.expert_after_success not in suite.after_success:
+            raise ValueError(
+                f"expert_after_success must be one of {suite.after_success} for {self.task}, got "
+                f"{self.expert_after_success!r}."
+            )
         self.root = Path(self.root) if self.root is not None else Path("data") / f"ivmc_{self.task}"
         if self.root.exists() and not self.root.is_dir():
             raise ValueError(f"root {self.root} is a file; give a folder (new, or one this command made).")
@@ -100,7 +109,7 @@ class CollectConfig:
         style = {} if self.render_style == LEGACY_RENDER_STYLE else {"render_style": self.render_style}
         return staging.normalise(
             {
-                **suite.expert_spec(self.action_noise, self.task),
+                **suite.expert_spec(self.action_noise, self.task, self.expert_after_success),
                 **style,
                 "task": self.task,
                 "gym_id": suite.gym_id(self.task),

@@ -42,6 +42,8 @@ class DemoSuite:
             learn (`VMCConfig.aux_state_indices`); None: the whole 6-D state.
         hold_key: the spec entry that names the expert's hold once its task is done, so that demos of
             before the hold never mix with new ones.
+        after_success: what the expert may do once its task is done (`--expert_after_success`): "hold",
+            and for MetaWorld also "act" (the scripted policy acts on to the demo's end).
         hold_without_noise: whether noise-free collections name it too (the Fetch expert stood still
             without noise before its hold; MetaWorld's scripted policy kept acting with or without).
         before_hold: what the demos of before the hold were, for the refusal that keeps them apart.
@@ -56,16 +58,18 @@ class DemoSuite:
     recorder: str
     scene_cells: bool
     hold_key: str
+    after_success: tuple[str, ...]
     hold_without_noise: bool
     before_hold: str
     aux_state_indices: tuple[int, ...] | None = None
 
-    def expert_spec(self, action_noise: float, task: str) -> dict:
-        """The collection spec's entries for the expert: its noise, its hold once the task is done, and,
-        where MetaWorld's scripted policy edits the state it reads, that it reads a copy."""
+    def expert_spec(self, action_noise: float, task: str, after_success: str = "hold") -> dict:
+        """The collection spec's entries for the expert: its noise, what it does once the task is done
+        ("hold", or MetaWorld's "act"), and, where MetaWorld's scripted policy edits the state it reads, that
+        it reads a copy."""
         spec: dict = {"action_noise": action_noise} if action_noise > 0 else {}
         if action_noise > 0 or self.hold_without_noise:
-            spec[self.hold_key] = "hold"
+            spec[self.hold_key] = after_success
         if self.name == "metaworld" and mw.expert_edits_state(task):
             spec[STATE_COPY_KEY] = True
         return spec
@@ -116,6 +120,7 @@ FETCH = DemoSuite(
     recorder="lerobot_ivmc.datasets.expert_attempts:Recorder",
     scene_cells=True,
     hold_key="expert_after_last_waypoint",
+    after_success=("hold",),
     hold_without_noise=False,
     before_hold="noisy demos recorded before the expert held its final pose (after its last waypoint it "
     "stood still while the noise moved the arm)",
@@ -130,6 +135,7 @@ METAWORLD = DemoSuite(
     recorder="lerobot_ivmc.datasets.metaworld_attempts:MetaworldRecorder",
     scene_cells=False,
     hold_key="expert_after_success",
+    after_success=("hold", "act"),
     hold_without_noise=True,
     before_hold="demos recorded before the scripted policy held still once the task was done (it kept "
     "acting, and undid some of the demos it had done)",

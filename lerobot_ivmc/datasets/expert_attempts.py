@@ -67,6 +67,8 @@ class Recorder:
         action_noise: std of the noise on the executed delta-EE command (`ActionNoise`); 0 for none.
         episode_steps: steps of every demo (the expert holds its final pose once done).
         render_style: how the camera image is drawn (`fetch_env.RENDER_STYLES`).
+        expert_after_success: "hold" (the Fetch expert holds its final pose; MetaWorld's recorder also
+            takes "act").
     """
 
     task: str
@@ -77,8 +79,11 @@ class Recorder:
     action_noise: float = 0.0
     episode_steps: int = DEMO_EPISODE_STEPS
     render_style: str = DEFAULT_RENDER_STYLE
+    expert_after_success: str = "hold"
 
     def __post_init__(self) -> None:
+        if self.expert_after_success != "hold":
+            raise ValueError(f"The Fetch expert holds once done, got {self.expert_after_success!r}.")
         # Demos always last `episode_steps` steps: success does not end them.
         self.env: IvmcFetchEnv = make_task_env(
             self.task,
@@ -134,6 +139,7 @@ def init_worker(
     action_noise: float,
     episode_steps: int = DEMO_EPISODE_STEPS,
     render_style: str = DEFAULT_RENDER_STYLE,
+    expert_after_success: str = "hold",
 ) -> None:
     """Pool initializer: build the worker's env once. Ctrl-C is left to the parent, which stops the pool."""
     global _worker_recorder
@@ -141,7 +147,15 @@ def init_worker(
     from lerobot_ivmc.datasets.demo_suites import suite_of
 
     _worker_recorder = suite_of(task).recorder_class()(
-        task, image_size, split, base_seed, Path(episodes_dir), action_noise, episode_steps, render_style
+        task,
+        image_size,
+        split,
+        base_seed,
+        Path(episodes_dir),
+        action_noise,
+        episode_steps,
+        render_style,
+        expert_after_success,
     )
 
 

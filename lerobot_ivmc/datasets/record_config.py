@@ -72,6 +72,8 @@ class RecordDemosConfig:
         seed: base seed of the attempts' scene seeds.
         action_noise: std of the noise on the executed delta-EE command, in action units (DART); the
             recorded label stays the expert's.
+        expert_after_success: once the task is done the expert holds still ("hold"); MetaWorld's scripted
+            policy may act on instead ("act"). Recorded in the collection's spec.
         progress: show a progress bar.
 
     The short flags of earlier versions (`--task`, `--num-episodes`, ...) are refused, naming these.
@@ -82,6 +84,7 @@ class RecordDemosConfig:
     num_workers: int = 2
     seed: int = 0
     action_noise: float = 0.0
+    expert_after_success: str = "hold"
     progress: bool = True
 
     def to_collect_config(self) -> CollectConfig:
@@ -106,6 +109,7 @@ class RecordDemosConfig:
             seed=self.seed,
             action_noise=self.action_noise,
             episode_steps=self.dataset.episode_steps,
+            expert_after_success=self.expert_after_success,
             push_to_hub=self.dataset.push_to_hub,
             private=self.dataset.private,
             progress=self.progress,

@@ -74,7 +74,8 @@ def inspect_episode(cfg: InspectConfig) -> dict:
             record["grip"].append(env.grip_position.tolist())
             record["object"].append(env.object_position.tolist())
             record["target"].append(env.target_position.tolist())
-            record["grasped"].append(bool(env.is_grasped()))
+            grasped = env.is_grasped()
+            record["grasped"].append(None if grasped is None else bool(grasped))
             record["action"].append(policy_step.action.tolist())
             if cfg.print_every and step % cfg.print_every == 0:
                 print(format_step(step, record))
@@ -107,7 +108,8 @@ def format_step(step: int, record: dict) -> str:
     )
     if "believed_goal" in record:
         line += f" goal {fmt(record['target'][-1])} believed {fmt(record['believed_goal'][-1])}"
-    line += f" grasped {int(record['grasped'][-1])} action {fmt(record['action'][-1])}"
+    grasped = record["grasped"][-1]
+    line += f" grasped {'-' if grasped is None else int(grasped)} action {fmt(record['action'][-1])}"
     if record["uncertainty"][-1] is not None:
         line += f" u {record['uncertainty'][-1]:.3f}"
     return line

@@ -30,6 +30,7 @@ def study_setup(cfg: PipelineConfig) -> dict:
             "seed": cfg.collect.seed,
             "num_episodes": cfg.collect.dataset.num_episodes,
             "action_noise": cfg.collect.action_noise,
+            **({"expert_after_success": a} if (a := cfg.collect.expert_after_success) != "hold" else {}),
             "env": asdict(cfg.collect.env),
             "regime": {"demo_budgets": cfg.regime.demo_budgets, "failure_range": cfg.regime.failure_range},
         },

@@ -205,6 +205,8 @@ def collect_stage(cfg: PipelineConfig, data: Path, repo_id: str) -> Stage:
             else []
         ),
         *flags("", {"num_workers": c.num_workers, "seed": c.seed, "action_noise": c.action_noise}),
+        # Only when not the default, so the studies of held demos keep their fingerprints.
+        *([f"--expert_after_success={c.expert_after_success}"] if c.expert_after_success != "hold" else []),
         "--progress=false",
     ]
     # The collector resumes its own staged demos: a killed collection reruns its command.

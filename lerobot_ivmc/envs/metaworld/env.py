@@ -157,9 +157,13 @@ class SeededMetaworldEnv(MetaworldEnv):
         """(3,) the task's goal, metres."""
         return np.asarray(self._env._target_pos, dtype=np.float64).copy()
 
-    def is_grasped(self) -> bool:
-        """Whether both finger pads touch the task's object (MetaWorld's own contact test)."""
-        return bool(self._env.touching_main_object)
+    def is_grasped(self) -> bool | None:
+        """Whether both finger pads touch the task's object (MetaWorld's own contact test); None where the
+        task names no object geom to test (door-open-v3 has no `objGeom` and no override of its own)."""
+        try:
+            return bool(self._env.touching_main_object)
+        except KeyError:
+            return None
 
     def _observation(self, raw_obs: np.ndarray) -> dict[str, np.ndarray]:
         raw_obs = np.asarray(raw_obs, dtype=np.float64)
