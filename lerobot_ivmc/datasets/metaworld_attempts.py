@@ -24,7 +24,8 @@ class MetaworldRecorder(Recorder):
     The recorded action is the policy's, clipped to the action space (its raw actions exceed [-1, 1]; the
     env clips them); with `action_noise` the executed one has N(0, std) added to its xyz (DART). Once done,
     the expert holds still (`run_scripted_episode`; left acting, `expert_after_success="act"`, the
-    scripted policy undoes some demos it has done). A demo lasts `episode_steps` steps and counts only if the task is done at its last step.
+    scripted policy undoes some demos it has done). A demo lasts `episode_steps` steps and counts only if
+    the task is done at its last step.
 
     Args: as `expert_attempts.Recorder` (`task` a MetaWorld v3 name; `action_noise` in action units).
     """
@@ -34,7 +35,9 @@ class MetaworldRecorder(Recorder):
 
     def __post_init__(self) -> None:
         if self.expert_after_success not in ("hold", "act"):
-            raise ValueError(f"expert_after_success must be 'hold' or 'act', got {self.expert_after_success!r}.")
+            raise ValueError(
+                f"expert_after_success must be 'hold' or 'act', got {self.expert_after_success!r}."
+            )
         scripted_policy_name(self.task)  # refuses a task without a scripted policy
         from lerobot_ivmc.envs.metaworld.env import SeededMetaworldEnv
 

@@ -221,3 +221,21 @@ def test_reach_s_push_leaves_the_recorded_reach_rows_fingerprints() -> None:
         "steps",
     ]
     assert sorted(stages_module.strategy_settings("reach", None)["reach"]) == recorded
+
+
+def test_demos_acting_on_once_done_are_collected_again_and_everything_after() -> None:
+    """`--collect.expert_after_success=act` (MetaWorld's scripted policy acting on once done) reaches the
+    collector and redoes every stage; the held default adds no flag (the studies above keep theirs)."""
+    args = ["--task=door-open-v3", "--preset=metaworld", "--output_dir=/studies/door", "--train.vmc=false"]
+    held, acting = (
+        {s.name: s for s in build_stages(parse_config(a))}
+        for a in (args, [*args, "--collect.expert_after_success=act"])
+    )
+    assert "--expert_after_success=act" in acting["collect"].argv
+    assert not any("expert_after_success" in arg for arg in held["collect"].argv)
+    found_held: dict[str, str] = {}
+    found_acting: dict[str, str] = {}
+    for name in held:
+        found_held[name] = fingerprint(held[name], found_held)
+        found_acting[name] = fingerprint(acting[name], found_acting)
+        assert found_held[name] != found_acting[name], name
