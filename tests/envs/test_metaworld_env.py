@@ -140,6 +140,16 @@ def test_the_scripted_policy_succeeds_and_success_ends_the_episode() -> None:
     assert terminated and info["is_success"] is True and not truncated
 
 
+def test_the_grasp_is_read_where_metaworld_names_the_object_and_unknown_where_it_does_not() -> None:
+    """MetaWorld's contact test reads the task's main object geom; door-open-v3 names none (no `objGeom`),
+    so `is_grasped` says None there instead of raising (`lerobot-ivmc-inspect` crashed on it)."""
+    for task, expected in (("pick-place-v3", False), ("door-open-v3", None)):
+        env = SeededMetaworldEnv(task, split="train")
+        env.reset(seed=0)
+        assert env.is_grasped() is expected, task
+        env.close()
+
+
 def test_lerobots_make_env_builds_it_and_its_observations_map_to_the_hub_datasets_keys() -> None:
     cfg = SeededMetaworldEnvConfig(task=TASK, split="val")
     envs = make_env(cfg, n_envs=2)
