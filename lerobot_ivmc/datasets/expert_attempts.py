@@ -82,8 +82,7 @@ class Recorder:
     expert_after_success: str = "hold"
 
     def __post_init__(self) -> None:
-        if self.expert_after_success != "hold":
-            raise ValueError(f"The Fetch expert holds once done, got {self.expert_after_success!r}.")
+        self.check_after_success()
         # Demos always last `episode_steps` steps: success does not end them.
         self.env: IvmcFetchEnv = make_task_env(
             self.task,
@@ -93,6 +92,17 @@ class Recorder:
             render_style=self.render_style,
         )
         self.expert: WaypointExpert = make_expert(self.env)
+
+    def check_after_success(self) -> None:
+        """Refuse an `expert_after_success` the task's suite does not offer (`DemoSuite.after_success`)."""
+        from lerobot_ivmc.datasets.demo_suites import suite_of
+
+        offered = suite_of(self.task).after_success
+        if self.expert_after_success not in offered:
+            raise ValueError(
+                f"expert_after_success must be one of {offered} for {self.task}, got "
+                f"{self.expert_after_success!r}."
+            )
 
     def record(self, attempt: int) -> tuple[int, bool]:
         """Run attempt `attempt`, stage it (episode file or failure marker), return (attempt, success)."""

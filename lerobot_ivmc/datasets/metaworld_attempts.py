@@ -34,10 +34,7 @@ class MetaworldRecorder(Recorder):
     render_style: str = "flat"
 
     def __post_init__(self) -> None:
-        if self.expert_after_success not in ("hold", "act"):
-            raise ValueError(
-                f"expert_after_success must be 'hold' or 'act', got {self.expert_after_success!r}."
-            )
+        self.check_after_success()
         scripted_policy_name(self.task)  # refuses a task without a scripted policy
         from lerobot_ivmc.envs.metaworld.env import SeededMetaworldEnv
 

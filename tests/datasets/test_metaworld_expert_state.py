@@ -72,8 +72,7 @@ def test_door_demos_recorded_before_the_copy_are_kept_apart(tmp_path: Path) -> N
     staging.write_json(root / staging.COLLECTION_INFO_PATH, {"spec": old, "num_episodes": 1})
     with pytest.raises(ValueError, match="edited it in place.*Collect the demos again.*new --dataset.root"):
         check_environment_state(SimpleNamespace(aux_state_indices=None), collection_spec(root), root)
-    check_environment_state(
-        SimpleNamespace(), collection_spec(root), root
-    )  # a policy without auxiliary heads trains on them
+    # a policy without auxiliary heads trains on them
+    check_environment_state(SimpleNamespace(), collection_spec(root), root)
     staging.write_json(root / staging.COLLECTION_INFO_PATH, {"spec": spec("door-open-v3"), "num_episodes": 1})
     check_environment_state(SimpleNamespace(aux_state_indices=None), collection_spec(root), root)
